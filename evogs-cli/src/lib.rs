@@ -1,0 +1,1 @@
+//! evogs-cli library (skeleton).

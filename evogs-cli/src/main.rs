@@ -1,0 +1,2 @@
+//! The evogs binary.
+fn main() {}

@@ -1,0 +1,364 @@
+//! Fixed-size matrices [`Mat2`] and [`Mat3`] over any [`Real`].
+//!
+//! Storage is **row-major**: `m[r][c]` is the entry in row `r`, column `c`, exactly as the
+//! formulas in the docs are written. (glam is column-major and nalgebra's storage is
+//! column-major too; the interop modules convert explicitly.)
+
+use crate::{Real, Vec2, Vec3};
+use core::ops::{Add, AddAssign, Mul, Neg, Sub};
+
+/// A 2×2 matrix, row-major (`m[row][col]`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Mat2<T> {
+    /// Entries, `m[row][col]`.
+    pub m: [[T; 2]; 2],
+}
+
+/// A 3×3 matrix, row-major (`m[row][col]`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Mat3<T> {
+    /// Entries, `m[row][col]`.
+    pub m: [[T; 3]; 3],
+}
+
+impl<T: Real> Mat2<T> {
+    /// A matrix from its rows.
+    #[inline]
+    #[must_use]
+    pub const fn from_rows(m: [[T; 2]; 2]) -> Self {
+        Self { m }
+    }
+    /// The zero matrix.
+    #[inline]
+    #[must_use]
+    pub const fn zero() -> Self {
+        Self {
+            m: [[T::ZERO; 2]; 2],
+        }
+    }
+    /// The identity.
+    #[inline]
+    #[must_use]
+    pub const fn identity() -> Self {
+        Self {
+            m: [[T::ONE, T::ZERO], [T::ZERO, T::ONE]],
+        }
+    }
+    /// Transpose.
+    #[inline]
+    #[must_use]
+    pub fn transpose(self) -> Self {
+        let m = self.m;
+        Self {
+            m: [[m[0][0], m[1][0]], [m[0][1], m[1][1]]],
+        }
+    }
+    /// Determinant.
+    #[inline]
+    #[must_use]
+    pub fn det(self) -> T {
+        self.m[0][0] * self.m[1][1] - self.m[0][1] * self.m[1][0]
+    }
+    /// Matrix-vector product.
+    #[inline]
+    #[must_use]
+    pub fn mul_vec(self, v: Vec2<T>) -> Vec2<T> {
+        Vec2::new(
+            self.m[0][0] * v.x + self.m[0][1] * v.y,
+            self.m[1][0] * v.x + self.m[1][1] * v.y,
+        )
+    }
+}
+
+impl<T: Real> Mat3<T> {
+    /// A matrix from its rows.
+    #[inline]
+    #[must_use]
+    pub const fn from_rows(m: [[T; 3]; 3]) -> Self {
+        Self { m }
+    }
+    /// A matrix from three column vectors.
+    #[inline]
+    #[must_use]
+    pub const fn from_cols(c0: Vec3<T>, c1: Vec3<T>, c2: Vec3<T>) -> Self {
+        Self {
+            m: [[c0.x, c1.x, c2.x], [c0.y, c1.y, c2.y], [c0.z, c1.z, c2.z]],
+        }
+    }
+    /// The zero matrix.
+    #[inline]
+    #[must_use]
+    pub const fn zero() -> Self {
+        Self {
+            m: [[T::ZERO; 3]; 3],
+        }
+    }
+    /// The identity.
+    #[inline]
+    #[must_use]
+    pub const fn identity() -> Self {
+        Self::diag(Vec3::new(T::ONE, T::ONE, T::ONE))
+    }
+    /// A diagonal matrix.
+    #[inline]
+    #[must_use]
+    pub const fn diag(d: Vec3<T>) -> Self {
+        Self {
+            m: [
+                [d.x, T::ZERO, T::ZERO],
+                [T::ZERO, d.y, T::ZERO],
+                [T::ZERO, T::ZERO, d.z],
+            ],
+        }
+    }
+    /// The outer product `a bᵀ`.
+    #[inline]
+    #[must_use]
+    pub fn outer(a: Vec3<T>, b: Vec3<T>) -> Self {
+        Self {
+            m: [
+                [a.x * b.x, a.x * b.y, a.x * b.z],
+                [a.y * b.x, a.y * b.y, a.y * b.z],
+                [a.z * b.x, a.z * b.y, a.z * b.z],
+            ],
+        }
+    }
+    /// Row `r` as a vector.
+    #[inline]
+    #[must_use]
+    pub fn row(self, r: usize) -> Vec3<T> {
+        Vec3::from_array(self.m[r])
+    }
+    /// Column `c` as a vector.
+    #[inline]
+    #[must_use]
+    pub fn col(self, c: usize) -> Vec3<T> {
+        Vec3::new(self.m[0][c], self.m[1][c], self.m[2][c])
+    }
+    /// Transpose.
+    #[inline]
+    #[must_use]
+    pub fn transpose(self) -> Self {
+        let m = self.m;
+        Self {
+            m: [
+                [m[0][0], m[1][0], m[2][0]],
+                [m[0][1], m[1][1], m[2][1]],
+                [m[0][2], m[1][2], m[2][2]],
+            ],
+        }
+    }
+    /// Trace.
+    #[inline]
+    #[must_use]
+    pub fn trace(self) -> T {
+        self.m[0][0] + self.m[1][1] + self.m[2][2]
+    }
+    /// Determinant.
+    #[inline]
+    #[must_use]
+    pub fn det(self) -> T {
+        let m = self.m;
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    }
+    /// Inverse by the adjugate; `None` if the determinant is zero or not finite.
+    #[must_use]
+    pub fn inverse(self) -> Option<Self> {
+        let d = self.det();
+        if d == T::ZERO || !d.is_finite() {
+            return None;
+        }
+        let m = self.m;
+        let inv = T::ONE / d;
+        let c = |r0: usize, c0: usize, r1: usize, c1: usize| {
+            m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]
+        };
+        Some(Self {
+            m: [
+                [
+                    c(1, 1, 2, 2) * inv,
+                    -c(0, 1, 2, 2) * inv,
+                    c(0, 1, 1, 2) * inv,
+                ],
+                [
+                    -c(1, 0, 2, 2) * inv,
+                    c(0, 0, 2, 2) * inv,
+                    -c(0, 0, 1, 2) * inv,
+                ],
+                [
+                    c(1, 0, 2, 1) * inv,
+                    -c(0, 0, 2, 1) * inv,
+                    c(0, 0, 1, 1) * inv,
+                ],
+            ],
+        })
+    }
+    /// Matrix-vector product `M v`.
+    #[inline]
+    #[must_use]
+    pub fn mul_vec(self, v: Vec3<T>) -> Vec3<T> {
+        Vec3::new(self.row(0).dot(v), self.row(1).dot(v), self.row(2).dot(v))
+    }
+    /// Transposed product `Mᵀ v`.
+    #[inline]
+    #[must_use]
+    pub fn tr_mul_vec(self, v: Vec3<T>) -> Vec3<T> {
+        self.row(0) * v.x + self.row(1) * v.y + self.row(2) * v.z
+    }
+    /// Matrix product `self · o`.
+    #[inline]
+    #[must_use]
+    pub fn mul_mat(self, o: Self) -> Self {
+        let mut r = Self::zero();
+        for i in 0..3 {
+            for j in 0..3 {
+                r.m[i][j] =
+                    self.m[i][0] * o.m[0][j] + self.m[i][1] * o.m[1][j] + self.m[i][2] * o.m[2][j];
+            }
+        }
+        r
+    }
+    /// Scales every entry.
+    #[inline]
+    #[must_use]
+    pub fn scale(self, s: T) -> Self {
+        let mut r = self;
+        for row in &mut r.m {
+            for e in row {
+                *e *= s;
+            }
+        }
+        r
+    }
+    /// Frobenius inner product `Σ_ij A_ij B_ij`.
+    #[inline]
+    #[must_use]
+    pub fn frobenius_dot(self, o: Self) -> T {
+        let mut s = T::ZERO;
+        for i in 0..3 {
+            for j in 0..3 {
+                s += self.m[i][j] * o.m[i][j];
+            }
+        }
+        s
+    }
+    /// Largest absolute entry.
+    #[must_use]
+    pub fn max_abs(self) -> T {
+        let mut s = T::ZERO;
+        for row in self.m {
+            for e in row {
+                s = s.max(e.abs());
+            }
+        }
+        s
+    }
+    /// Entries as a flat row-major array.
+    #[inline]
+    #[must_use]
+    pub fn to_flat(self) -> [T; 9] {
+        let m = self.m;
+        [
+            m[0][0], m[0][1], m[0][2], m[1][0], m[1][1], m[1][2], m[2][0], m[2][1], m[2][2],
+        ]
+    }
+    /// A matrix from a flat row-major array.
+    #[inline]
+    #[must_use]
+    pub fn from_flat(a: [T; 9]) -> Self {
+        Self {
+            m: [[a[0], a[1], a[2]], [a[3], a[4], a[5]], [a[6], a[7], a[8]]],
+        }
+    }
+    /// Converts the scalar type (through `f64`).
+    #[must_use]
+    pub fn cast<U: Real>(self) -> Mat3<U> {
+        let mut r = Mat3::<U>::zero();
+        for i in 0..3 {
+            for j in 0..3 {
+                r.m[i][j] = U::from_f64(self.m[i][j].to_f64());
+            }
+        }
+        r
+    }
+}
+
+impl<T: Real> Add for Mat3<T> {
+    type Output = Self;
+    #[inline]
+    fn add(self, o: Self) -> Self {
+        let mut r = self;
+        r += o;
+        r
+    }
+}
+impl<T: Real> AddAssign for Mat3<T> {
+    #[inline]
+    fn add_assign(&mut self, o: Self) {
+        for i in 0..3 {
+            for j in 0..3 {
+                self.m[i][j] += o.m[i][j];
+            }
+        }
+    }
+}
+impl<T: Real> Sub for Mat3<T> {
+    type Output = Self;
+    #[inline]
+    fn sub(self, o: Self) -> Self {
+        self + (-o)
+    }
+}
+impl<T: Real> Neg for Mat3<T> {
+    type Output = Self;
+    #[inline]
+    fn neg(self) -> Self {
+        self.scale(-T::ONE)
+    }
+}
+impl<T: Real> Mul for Mat3<T> {
+    type Output = Self;
+    #[inline]
+    fn mul(self, o: Self) -> Self {
+        self.mul_mat(o)
+    }
+}
+impl<T: Real> Mul<Vec3<T>> for Mat3<T> {
+    type Output = Vec3<T>;
+    #[inline]
+    fn mul(self, v: Vec3<T>) -> Vec3<T> {
+        self.mul_vec(v)
+    }
+}
+
+/// `f32` 3×3 matrix.
+pub type Mat3f = Mat3<f32>;
+/// `f64` 3×3 matrix.
+pub type Mat3d = Mat3<f64>;
+
+#[cfg(test)]
+mod tests {
+    use super::Mat3;
+    use crate::Vec3;
+
+    #[test]
+    fn inverse_times_matrix_is_identity() {
+        let a = Mat3::from_rows([[2.0, 0.3, -1.0], [0.5, 1.5, 0.2], [-0.4, 0.1, 3.0]]);
+        let i = a.inverse().expect("invertible") * a;
+        assert!((i - Mat3::identity()).max_abs() < 1e-14, "A⁻¹A = I");
+        assert!(
+            Mat3::<f64>::zero().inverse().is_none(),
+            "singular gives None"
+        );
+    }
+
+    #[test]
+    fn transposed_product() {
+        let a = Mat3::from_rows([[2.0, 0.3, -1.0], [0.5, 1.5, 0.2], [-0.4, 0.1, 3.0]]);
+        let v = Vec3::new(0.2, -0.7, 1.3);
+        let d = a.tr_mul_vec(v) - a.transpose().mul_vec(v);
+        assert!(d.norm() < 1e-15, "Aᵀv two ways");
+    }
+}

@@ -1,0 +1,254 @@
+//! The scalar coefficient functions of the SO(3) maps, each with its own small-angle branch.
+//!
+//! All take **θ² = |φ|²**, never θ: the derivative of √(θ²) is infinite at 0, so a branch
+//! written in θ would give NaN derivatives with dual numbers at the identity. Each
+//! function switches to a truncated Taylor series below a threshold chosen for *that*
+//! function (ode-lie.md 2.5), such that both branches are accurate to about 1e-16 relative
+//! in f64 at the switch:
+//!
+//! | function | closed form | series below | terms | cancellation of the closed form |
+//! |---|---|---|---|---|
+//! | [`sinc`] | sin θ/θ | θ² < 1e-2 | 5 | none |
+//! | [`cos_half`] | cos(θ/2) | θ² < 1e-2 | 5 | none |
+//! | [`one_minus_cos_over_sq`] | 2 sin²(θ/2)/θ² | θ² < 1e-2 | 5 | none (half-angle form) |
+//! | [`theta_minus_sin_over_cube`] | (θ − sin θ)/θ³ | θ² < 1 | 9 | ~ε/θ² |
+//! | [`jinv_coeff`] | 1/θ² − cot(θ/2)/(2θ) | θ² < 1 | 10 | ~ε/θ² |
+//!
+//! Names follow the oracle's Jacobian conventions: `Jl = I + A K + B K²` with
+//! `A = (1 − cos θ)/θ²` and `B = (θ − sin θ)/θ³`, `Jl⁻¹ = I − K/2 + D K²`.
+
+use crate::Real;
+
+/// Evaluates `Σ_k c[k]·x^k` by Horner's rule.
+#[inline]
+fn horner<T: Real>(x: T, c: &[f64]) -> T {
+    let mut acc = T::ZERO;
+    for &ck in c.iter().rev() {
+        acc = acc * x + T::from_f64(ck);
+    }
+    acc
+}
+
+/// sin θ/θ, Taylor coefficients in θ²: (−1)^k/(2k+1)!.
+const SINC: [f64; 5] = [
+    1.0,
+    -0.16666666666666666,
+    0.008333333333333333,
+    -0.0001984126984126984,
+    2.7557319223985893e-06,
+];
+/// cos(θ/2) in powers of θ²: (−1)^k/(4^k (2k)!).
+const COS_HALF: [f64; 5] = [
+    1.0,
+    -0.125,
+    0.0026041666666666665,
+    -2.170138888888889e-05,
+    9.68812003968254e-08,
+];
+/// (1 − cos θ)/θ² in powers of θ²: (−1)^k/(2k+2)!.
+const ONE_MINUS_COS: [f64; 5] = [
+    0.5,
+    -0.041666666666666664,
+    0.001388888888888889,
+    -2.48015873015873e-05,
+    2.755731922398589e-07,
+];
+/// (θ − sin θ)/θ³ in powers of θ²: (−1)^k/(2k+3)!.
+const THETA_MINUS_SIN: [f64; 9] = [
+    0.16666666666666666,
+    -0.008333333333333333,
+    0.0001984126984126984,
+    -2.7557319223985893e-06,
+    2.505210838544172e-08,
+    -1.6059043836821613e-10,
+    7.647163731819816e-13,
+    -2.8114572543455206e-15,
+    8.22063524662433e-18,
+];
+/// D(θ) = 1/θ² − cot(θ/2)/(2θ) in powers of θ²: |B₂ₙ|/(2n)! (Bernoulli numbers).
+const JINV: [f64; 10] = [
+    0.08333333333333333,
+    0.001388888888888889,
+    3.306878306878307e-05,
+    8.267195767195768e-07,
+    2.08767569878681e-08,
+    5.284190138687493e-10,
+    1.3382536530684679e-11,
+    3.3896802963225827e-13,
+    8.586062056277845e-15,
+    2.174868698558062e-16,
+];
+
+/// Threshold on θ² below which the short (5-term) series are used.
+pub const SMALL_SERIES_THRESHOLD: f64 = 1e-2;
+/// Threshold on θ² below which the long series of the cancelling coefficients are used.
+pub const LONG_SERIES_THRESHOLD: f64 = 1.0;
+
+/// One coefficient function: its series (in θ²), its closed form and the switch point.
+struct Coeff<T> {
+    series: fn(T) -> T,
+    closed: fn(T) -> T,
+    threshold: f64,
+}
+
+impl<T: Real> Coeff<T> {
+    #[inline]
+    fn eval(&self, theta_sq: T) -> T {
+        if theta_sq < T::from_f64(self.threshold) {
+            (self.series)(theta_sq)
+        } else {
+            (self.closed)(theta_sq)
+        }
+    }
+}
+
+fn sinc_coeff<T: Real>() -> Coeff<T> {
+    Coeff {
+        series: |x| horner(x, &SINC),
+        closed: |x| {
+            let t = x.sqrt();
+            t.sin() / t
+        },
+        threshold: SMALL_SERIES_THRESHOLD,
+    }
+}
+
+fn cos_half_coeff<T: Real>() -> Coeff<T> {
+    Coeff {
+        series: |x| horner(x, &COS_HALF),
+        closed: |x| (x.sqrt() * T::HALF).cos(),
+        threshold: SMALL_SERIES_THRESHOLD,
+    }
+}
+
+fn one_minus_cos_coeff<T: Real>() -> Coeff<T> {
+    Coeff {
+        series: |x| horner(x, &ONE_MINUS_COS),
+        closed: |x| {
+            let s = sin_half_over(x);
+            T::TWO * s * s
+        },
+        threshold: SMALL_SERIES_THRESHOLD,
+    }
+}
+
+fn theta_minus_sin_coeff<T: Real>() -> Coeff<T> {
+    Coeff {
+        series: |x| horner(x, &THETA_MINUS_SIN),
+        closed: |x| {
+            let t = x.sqrt();
+            (t - t.sin()) / (x * t)
+        },
+        threshold: LONG_SERIES_THRESHOLD,
+    }
+}
+
+fn jinv_coeff_fn<T: Real>() -> Coeff<T> {
+    Coeff {
+        series: |x| horner(x, &JINV),
+        closed: |x| {
+            let t = x.sqrt();
+            let (s, c) = (t * T::HALF).sin_cos();
+            T::ONE / x - c / (s * T::TWO * t)
+        },
+        threshold: LONG_SERIES_THRESHOLD,
+    }
+}
+
+/// sin θ/θ as a function of θ² (limit 1 at 0).
+#[inline]
+#[must_use]
+pub fn sinc<T: Real>(theta_sq: T) -> T {
+    sinc_coeff().eval(theta_sq)
+}
+
+/// cos(θ/2) as a function of θ².
+#[inline]
+#[must_use]
+pub fn cos_half<T: Real>(theta_sq: T) -> T {
+    cos_half_coeff().eval(theta_sq)
+}
+
+/// sin(θ/2)/θ as a function of θ² (limit 1/2): the vector-part factor of the quaternion
+/// exponential `(cos(θ/2), sin(θ/2)/θ · φ)`.
+#[inline]
+#[must_use]
+pub fn sin_half_over<T: Real>(theta_sq: T) -> T {
+    sinc(theta_sq * T::from_f64(0.25)) * T::HALF
+}
+
+/// A = (1 − cos θ)/θ² as a function of θ² (limit 1/2), via the cancellation-free
+/// 2 sin²(θ/2)/θ².
+#[inline]
+#[must_use]
+pub fn one_minus_cos_over_sq<T: Real>(theta_sq: T) -> T {
+    one_minus_cos_coeff().eval(theta_sq)
+}
+
+/// B = (θ − sin θ)/θ³ as a function of θ² (limit 1/6).
+#[inline]
+#[must_use]
+pub fn theta_minus_sin_over_cube<T: Real>(theta_sq: T) -> T {
+    theta_minus_sin_coeff().eval(theta_sq)
+}
+
+/// D = 1/θ² − cot(θ/2)/(2θ) = (1 − (θ/2)·cot(θ/2))/θ² as a function of θ² (limit 1/12).
+///
+/// Finite on [0, 2π), equal to 1/π² at π; singular at 2π, which a shortest-path log never
+/// reaches.
+#[inline]
+#[must_use]
+pub fn jinv_coeff<T: Real>(theta_sq: T) -> T {
+    jinv_coeff_fn().eval(theta_sq)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Dual;
+
+    #[test]
+    fn both_branches_agree_at_each_threshold() {
+        let all: [(&str, Coeff<f64>); 5] = [
+            ("sinc", sinc_coeff()),
+            ("cos_half", cos_half_coeff()),
+            ("one_minus_cos", one_minus_cos_coeff()),
+            ("theta_minus_sin", theta_minus_sin_coeff()),
+            ("jinv", jinv_coeff_fn()),
+        ];
+        for (name, c) in all {
+            for x in [c.threshold, c.threshold * 0.5] {
+                let s = (c.series)(x);
+                let k = (c.closed)(x);
+                assert!(
+                    (s - k).abs() <= 5e-15 * s.abs(),
+                    "{name}: series {s} vs closed {k} at θ² = {x}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn dual_derivatives_are_finite_at_zero_and_match_series() {
+        // d/d(θ²) at 0 is the second series coefficient.
+        let want = [-1.0 / 6.0, -0.125, -1.0 / 24.0, -1.0 / 120.0, 1.0 / 720.0];
+        let fs: [fn(Dual<f64>) -> Dual<f64>; 5] = [
+            sinc::<Dual<f64>>,
+            cos_half::<Dual<f64>>,
+            one_minus_cos_over_sq::<Dual<f64>>,
+            theta_minus_sin_over_cube::<Dual<f64>>,
+            jinv_coeff::<Dual<f64>>,
+        ];
+        for (f, w) in fs.iter().zip(want) {
+            let d = f(Dual::variable(0.0)).eps;
+            assert!((d - w).abs() < 1e-15, "derivative at 0: {d} vs {w}");
+        }
+    }
+
+    #[test]
+    fn jinv_at_pi_is_one_over_pi_squared() {
+        let pi = core::f64::consts::PI;
+        let d = jinv_coeff(pi * pi);
+        assert!((d - 1.0 / (pi * pi)).abs() < 1e-16, "D(π) = {d}");
+    }
+}

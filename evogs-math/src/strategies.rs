@@ -1,0 +1,43 @@
+//! Public proptest strategies for evogs-math types (feature `proptest`).
+//!
+//! Random draws alone rarely produce the cases that break SO(3) code, so the rotation
+//! strategies mix log-uniform magnitudes (1e-12 … π) with angles just below π.
+
+use crate::{Quat, Vec3};
+use proptest::prelude::*;
+
+/// A 3-vector with components in `[-r, r]`.
+pub fn vec3(r: f64) -> impl Strategy<Value = Vec3<f64>> {
+    (-r..=r, -r..=r, -r..=r).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// A unit vector (normalised Gaussian-like draw, never degenerate).
+pub fn unit_vec3() -> impl Strategy<Value = Vec3<f64>> {
+    vec3(1.0)
+        .prop_filter("non-degenerate", |v| v.norm() > 1e-3)
+        .prop_map(|v| v * (1.0 / v.norm()))
+}
+
+/// A rotation vector with |φ| < `max_angle`, magnitudes log-uniform from 1e-12 and a share
+/// of angles within 1e-8…1e-2 of `max_angle`.
+pub fn so3_tangent(max_angle: f64) -> impl Strategy<Value = Vec3<f64>> {
+    let log_uniform = (-12.0..num_traits::Float::log10(max_angle))
+        .prop_map(|e: f64| num_traits::Float::powf(10.0, e));
+    let near_max = (-8.0..-2.0f64).prop_map(move |e| max_angle - num_traits::Float::powf(10.0, e));
+    let mag = prop_oneof![3 => log_uniform, 1 => near_max];
+    (unit_vec3(), mag).prop_map(|(u, m)| u * m)
+}
+
+/// A unit quaternion (w, x, y, z).
+pub fn unit_quat() -> impl Strategy<Value = Quat<f64>> {
+    (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64)
+        .prop_filter("non-degenerate", |(w, x, y, z)| {
+            w * w + x * x + y * y + z * z > 1e-4
+        })
+        .prop_map(|(w, x, y, z)| Quat::new(w, x, y, z).normalize())
+}
+
+/// A raw (unnormalised) quaternion with norm in roughly [0.3, 2].
+pub fn raw_quat() -> impl Strategy<Value = Quat<f64>> {
+    (unit_quat(), 0.3..2.0f64).prop_map(|(q, s)| q.scale(s))
+}

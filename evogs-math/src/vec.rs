@@ -1,0 +1,349 @@
+//! Fixed-size vectors [`Vec2`] and [`Vec3`] over any [`Real`].
+//!
+//! Plain `Copy` structs with public fields and inherent methods (glam's style); the
+//! scalar is a type parameter so the same code runs in `f32`, `f64` and dual numbers.
+
+use crate::Real;
+use core::ops::{Add, AddAssign, Index, IndexMut, Mul, MulAssign, Neg, Sub, SubAssign};
+
+/// A 2-vector (pixel coordinates, 2D offsets).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Vec2<T> {
+    /// First component.
+    pub x: T,
+    /// Second component.
+    pub y: T,
+}
+
+/// A 3-vector (positions, rotation vectors, angular velocities, log-scales).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Vec3<T> {
+    /// First component.
+    pub x: T,
+    /// Second component.
+    pub y: T,
+    /// Third component.
+    pub z: T,
+}
+
+impl<T: Real> Vec2<T> {
+    /// A vector from its components.
+    #[inline]
+    #[must_use]
+    pub const fn new(x: T, y: T) -> Self {
+        Self { x, y }
+    }
+    /// The zero vector.
+    #[inline]
+    #[must_use]
+    pub const fn zero() -> Self {
+        Self {
+            x: T::ZERO,
+            y: T::ZERO,
+        }
+    }
+    /// Dot product.
+    #[inline]
+    #[must_use]
+    pub fn dot(self, o: Self) -> T {
+        self.x * o.x + self.y * o.y
+    }
+    /// Squared Euclidean norm.
+    #[inline]
+    #[must_use]
+    pub fn norm_squared(self) -> T {
+        self.dot(self)
+    }
+    /// Euclidean norm.
+    #[inline]
+    #[must_use]
+    pub fn norm(self) -> T {
+        self.norm_squared().sqrt()
+    }
+    /// Components as an array.
+    #[inline]
+    #[must_use]
+    pub const fn to_array(self) -> [T; 2] {
+        [self.x, self.y]
+    }
+    /// A vector from an array.
+    #[inline]
+    #[must_use]
+    pub const fn from_array(a: [T; 2]) -> Self {
+        Self { x: a[0], y: a[1] }
+    }
+    /// Converts the scalar type (through `f64`).
+    #[inline]
+    #[must_use]
+    pub fn cast<U: Real>(self) -> Vec2<U> {
+        Vec2::new(U::from_f64(self.x.to_f64()), U::from_f64(self.y.to_f64()))
+    }
+}
+
+impl<T: Real> Vec3<T> {
+    /// A vector from its components.
+    #[inline]
+    #[must_use]
+    pub const fn new(x: T, y: T, z: T) -> Self {
+        Self { x, y, z }
+    }
+    /// The zero vector.
+    #[inline]
+    #[must_use]
+    pub const fn zero() -> Self {
+        Self {
+            x: T::ZERO,
+            y: T::ZERO,
+            z: T::ZERO,
+        }
+    }
+    /// All three components equal to `v`.
+    #[inline]
+    #[must_use]
+    pub const fn splat(v: T) -> Self {
+        Self { x: v, y: v, z: v }
+    }
+    /// The unit vector along axis `i` (0, 1 or 2).
+    #[inline]
+    #[must_use]
+    pub fn unit(i: usize) -> Self {
+        let mut v = Self::zero();
+        v[i] = T::ONE;
+        v
+    }
+    /// Dot product.
+    #[inline]
+    #[must_use]
+    pub fn dot(self, o: Self) -> T {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+    /// Cross product `self × o`.
+    #[inline]
+    #[must_use]
+    pub fn cross(self, o: Self) -> Self {
+        Self::new(
+            self.y * o.z - self.z * o.y,
+            self.z * o.x - self.x * o.z,
+            self.x * o.y - self.y * o.x,
+        )
+    }
+    /// Squared Euclidean norm.
+    #[inline]
+    #[must_use]
+    pub fn norm_squared(self) -> T {
+        self.dot(self)
+    }
+    /// Euclidean norm.
+    #[inline]
+    #[must_use]
+    pub fn norm(self) -> T {
+        self.norm_squared().sqrt()
+    }
+    /// Component-wise product.
+    #[inline]
+    #[must_use]
+    pub fn mul_elem(self, o: Self) -> Self {
+        Self::new(self.x * o.x, self.y * o.y, self.z * o.z)
+    }
+    /// Component-wise map.
+    #[inline]
+    #[must_use]
+    pub fn map(self, f: impl Fn(T) -> T) -> Self {
+        Self::new(f(self.x), f(self.y), f(self.z))
+    }
+    /// Largest component.
+    #[inline]
+    #[must_use]
+    pub fn max_elem(self) -> T {
+        self.x.max(self.y).max(self.z)
+    }
+    /// `true` if every component is finite.
+    #[inline]
+    #[must_use]
+    pub fn is_finite(self) -> bool {
+        self.x.is_finite() && self.y.is_finite() && self.z.is_finite()
+    }
+    /// Components as an array.
+    #[inline]
+    #[must_use]
+    pub const fn to_array(self) -> [T; 3] {
+        [self.x, self.y, self.z]
+    }
+    /// A vector from an array.
+    #[inline]
+    #[must_use]
+    pub const fn from_array(a: [T; 3]) -> Self {
+        Self {
+            x: a[0],
+            y: a[1],
+            z: a[2],
+        }
+    }
+    /// A vector from the first three entries of a slice.
+    ///
+    /// # Panics
+    /// If the slice is shorter than 3.
+    #[inline]
+    #[must_use]
+    pub fn from_slice(s: &[T]) -> Self {
+        Self {
+            x: s[0],
+            y: s[1],
+            z: s[2],
+        }
+    }
+    /// Writes the components into the first three entries of a slice.
+    ///
+    /// # Panics
+    /// If the slice is shorter than 3.
+    #[inline]
+    pub fn write_to(self, s: &mut [T]) {
+        s[0] = self.x;
+        s[1] = self.y;
+        s[2] = self.z;
+    }
+    /// Adds the components into the first three entries of a slice.
+    ///
+    /// # Panics
+    /// If the slice is shorter than 3.
+    #[inline]
+    pub fn add_to(self, s: &mut [T]) {
+        s[0] += self.x;
+        s[1] += self.y;
+        s[2] += self.z;
+    }
+    /// Converts the scalar type (through `f64`).
+    #[inline]
+    #[must_use]
+    pub fn cast<U: Real>(self) -> Vec3<U> {
+        Vec3::new(
+            U::from_f64(self.x.to_f64()),
+            U::from_f64(self.y.to_f64()),
+            U::from_f64(self.z.to_f64()),
+        )
+    }
+}
+
+macro_rules! impl_vec_ops {
+    ($V:ident { $($f:ident),+ }) => {
+        impl<T: Real> Add for $V<T> {
+            type Output = Self;
+            #[inline]
+            fn add(self, o: Self) -> Self {
+                Self { $($f: self.$f + o.$f),+ }
+            }
+        }
+        impl<T: Real> Sub for $V<T> {
+            type Output = Self;
+            #[inline]
+            fn sub(self, o: Self) -> Self {
+                Self { $($f: self.$f - o.$f),+ }
+            }
+        }
+        impl<T: Real> Neg for $V<T> {
+            type Output = Self;
+            #[inline]
+            fn neg(self) -> Self {
+                Self { $($f: -self.$f),+ }
+            }
+        }
+        impl<T: Real> Mul<T> for $V<T> {
+            type Output = Self;
+            #[inline]
+            fn mul(self, s: T) -> Self {
+                Self { $($f: self.$f * s),+ }
+            }
+        }
+        impl<T: Real> AddAssign for $V<T> {
+            #[inline]
+            fn add_assign(&mut self, o: Self) {
+                $(self.$f += o.$f;)+
+            }
+        }
+        impl<T: Real> SubAssign for $V<T> {
+            #[inline]
+            fn sub_assign(&mut self, o: Self) {
+                $(self.$f -= o.$f;)+
+            }
+        }
+        impl<T: Real> MulAssign<T> for $V<T> {
+            #[inline]
+            fn mul_assign(&mut self, s: T) {
+                $(self.$f *= s;)+
+            }
+        }
+    };
+}
+
+impl_vec_ops!(Vec2 { x, y });
+impl_vec_ops!(Vec3 { x, y, z });
+
+impl<T> Index<usize> for Vec2<T> {
+    type Output = T;
+    #[inline]
+    fn index(&self, i: usize) -> &T {
+        match i {
+            0 => &self.x,
+            1 => &self.y,
+            _ => panic!("Vec2 index {i} out of range"),
+        }
+    }
+}
+impl<T> IndexMut<usize> for Vec2<T> {
+    #[inline]
+    fn index_mut(&mut self, i: usize) -> &mut T {
+        match i {
+            0 => &mut self.x,
+            1 => &mut self.y,
+            _ => panic!("Vec2 index {i} out of range"),
+        }
+    }
+}
+impl<T> Index<usize> for Vec3<T> {
+    type Output = T;
+    #[inline]
+    fn index(&self, i: usize) -> &T {
+        match i {
+            0 => &self.x,
+            1 => &self.y,
+            2 => &self.z,
+            _ => panic!("Vec3 index {i} out of range"),
+        }
+    }
+}
+impl<T> IndexMut<usize> for Vec3<T> {
+    #[inline]
+    fn index_mut(&mut self, i: usize) -> &mut T {
+        match i {
+            0 => &mut self.x,
+            1 => &mut self.y,
+            2 => &mut self.z,
+            _ => panic!("Vec3 index {i} out of range"),
+        }
+    }
+}
+
+/// `f32` 3-vector.
+pub type Vec3f = Vec3<f32>;
+/// `f64` 3-vector.
+pub type Vec3d = Vec3<f64>;
+/// `f32` 2-vector.
+pub type Vec2f = Vec2<f32>;
+/// `f64` 2-vector.
+pub type Vec2d = Vec2<f64>;
+
+#[cfg(test)]
+mod tests {
+    use super::Vec3;
+
+    #[test]
+    fn cross_is_orthogonal_and_right_handed() {
+        let x = Vec3::<f64>::unit(0);
+        let y = Vec3::<f64>::unit(1);
+        let z = x.cross(y);
+        assert!((z.z - 1.0).abs() < 1e-15 && z.x.abs() < 1e-15, "x × y = z");
+        let a = Vec3::<f64>::new(0.3, -1.2, 2.0);
+        let b = Vec3::new(1.1, 0.4, -0.7);
+        assert!(a.cross(b).dot(a).abs() < 1e-14, "a × b ⟂ a");
+    }
+}

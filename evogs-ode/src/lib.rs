@@ -1,0 +1,2 @@
+//! evogs-ode (skeleton).
+#![cfg_attr(not(feature = "std"), no_std)]

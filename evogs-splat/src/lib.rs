@@ -1,0 +1,2 @@
+//! evogs-splat (skeleton).
+#![cfg_attr(not(feature = "std"), no_std)]
