@@ -1,1 +1,9 @@
-//! evogs-cli library (skeleton).
+//! # evogs-cli
+//!
+//! The composition of evogs-math, evogs-ode and evogs-splat into EvoGS training, evaluation,
+//! rendering, motion editing and verification, and the `evogs` command line.
+
+pub mod data;
+pub mod field;
+pub mod run;
+pub mod train;

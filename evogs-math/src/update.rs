@@ -96,6 +96,25 @@ pub fn exp_update_right_vjp<T: Real>(
     through_exp(omega, dt, q.conj().mul_quat(g), g.mul_quat(e.conj()))
 }
 
+/// Converts the ambient gradient `g = ∂L/∂q` of a **unit** quaternion into the cotangent of
+/// a world-frame (left) perturbation `q ↦ Exp(δ) ⊗ q`: `∂L/∂δ = ½·vec(g ⊗ q*)`.
+///
+/// The radial part of `g` (along q) has no effect. This is how a renderer's quaternion
+/// gradient enters an ODE adjoint whose SO(3) cotangents are left perturbations.
+#[inline]
+#[must_use]
+pub fn left_cotangent_from_ambient<T: Real>(q: Quat<T>, g: Quat<T>) -> Vec3<T> {
+    g.mul_quat(q.conj()).vec() * T::HALF
+}
+
+/// The inverse direction of [`left_cotangent_from_ambient`]: the ambient gradient, tangent
+/// to the unit sphere at `q`, that a left cotangent λ represents: `2·(0, λ) ⊗ q`.
+#[inline]
+#[must_use]
+pub fn ambient_from_left_cotangent<T: Real>(q: Quat<T>, lambda: Vec3<T>) -> Quat<T> {
+    Quat::pure(lambda * T::TWO).mul_quat(q)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,6 +186,22 @@ mod tests {
     #[test]
     fn right_update_vjp() {
         check(exp_update_right, exp_update_right, exp_update_right_vjp);
+    }
+
+    #[test]
+    fn cotangent_conversions_are_consistent() {
+        let q = Quat::new(0.3, -0.5, 0.7, 0.2).normalize();
+        let g = Quat::new(0.4, 1.0, -0.3, 0.8);
+        let lambda = left_cotangent_from_ambient(q, g);
+        // Directional derivative along Exp(δ)q equals λ·δ.
+        let d = Vec3::new(0.2, -0.4, 0.9);
+        let h = 1e-6;
+        let fd = (exp_update_left(q, d, h).dot(g) - exp_update_left(q, d, -h).dot(g)) / (2.0 * h);
+        assert!((fd - lambda.dot(d)).abs() < 1e-9, "left cotangent: fd {fd} vs {}", lambda.dot(d));
+        // Round trip through the tangential ambient gradient.
+        let back = left_cotangent_from_ambient(q, ambient_from_left_cotangent(q, lambda));
+        assert!((back - lambda).norm() < 1e-15, "round trip");
+        assert!(ambient_from_left_cotangent(q, lambda).dot(q).abs() < 1e-15, "tangent to the sphere");
     }
 
     #[test]

@@ -1,0 +1,49 @@
+//! The neural field at the peer's configuration (performance.md): HexPlane 2 levels × 32
+//! channels at [64, 64, 64, 25], MLP 64 wide with three heads, f32, for 5k and 20k Gaussians:
+//! one evaluation, and one VJP (which recomputes the forward internally).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use evogs_cli::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
+use evogs_math::Par;
+use evogs_math::rng::SplitMix64;
+use evogs_ode::VectorField;
+use std::hint::black_box;
+
+fn field() -> NeuralField<f32> {
+    let cfg = NeuralFieldConfig {
+        hexplane: HexPlaneConfig { channels: 32, resolution: [64, 64, 64, 25], multires: vec![1, 2] },
+        width: 64,
+        output_scales: [10.0, 1.0, 1.0],
+    };
+    NeuralField::new(&cfg, [-0.5; 3], [0.5; 3], TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 }, 1)
+}
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("neural_field");
+    g.sample_size(10);
+    for n in [5_000usize, 20_000] {
+        let mut rng = SplitMix64::new(2);
+        let mut y = Vec::with_capacity(n * 10);
+        for _ in 0..n {
+            #[allow(clippy::cast_possible_truncation, reason = "bench inputs")]
+            y.extend([rng.uniform(-0.5, 0.5) as f32, rng.uniform(-0.5, 0.5) as f32, rng.uniform(-0.5, 0.5) as f32]);
+            y.extend([1.0, 0.0, 0.0, 0.0, -4.0, -4.0, -4.0]);
+        }
+        #[allow(clippy::cast_possible_truncation, reason = "bench inputs")]
+        let w: Vec<f32> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0) as f32).collect();
+        for (name, par) in [("seq", Par::Seq), ("rayon", Par::best())] {
+            let mut f = field();
+            f.set_count(n);
+            f.set_par(par);
+            let mut out = vec![0.0; n * 9];
+            g.bench_function(format!("eval/{n}/{name}"), |b| b.iter(|| f.eval(black_box(0.3), &y, &mut out)));
+            let mut d_y = vec![0.0; n * 9];
+            let mut d_p = vec![0.0; f.n_params()];
+            g.bench_function(format!("vjp/{n}/{name}"), |b| b.iter(|| f.vjp(black_box(0.3), &y, &w, &mut d_y, &mut d_p)));
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,104 @@
+//! [`Gemm`]: the scalar types with a real matrix-multiply kernel.
+//!
+//! The batched layers of the neural field call nalgebra's `gemm` on strided matrix views of
+//! our own buffers. For `f32`/`f64` and all dimensions above 5, nalgebra hands the product to
+//! matrixmultiply's `sgemm`/`dgemm`, which dispatch at run time to AVX2/FMA micro-kernels.
+//! This keeps `unsafe` out of evogs (it lives in those well-tested crates).
+//!
+//! Thin products (a dimension ≤ 5, e.g. the 3-wide output heads) are done here with a plain
+//! loop: nalgebra's own fallback for them (`gemv` → `axcpy`) iterates over the length of the
+//! *underlying slice* of a strided vector view instead of its number of rows (nalgebra
+//! 0.35.0, `array_axcpy(.., x.len())`), which reads out of bounds for the strided views we use.
+//!
+//! The neural field is written once, generic over `T: Gemm`: f32 for training, f64 for the
+//! gradient checks. Matrices are (slice, row stride, column stride), so a transposed operand is
+//! just swapped strides.
+
+use evogs_math::Real;
+use nalgebra::{DMatrixView, DMatrixViewMut};
+
+/// A strided matrix operand: `(data, rows, cols, row_stride, col_stride)`; entry (i, j) is
+/// `data[i·row_stride + j·col_stride]`.
+pub type MatRef<'a, T> = (&'a [T], usize, usize, usize, usize);
+
+/// Products with a dimension at most this small use the plain loop (see the module docs).
+const THIN: usize = 5;
+
+/// A scalar with a general matrix-multiply kernel: `C ← α·A·B + β·C`.
+pub trait Gemm: Real + nalgebra::RealField {
+    /// `C ← alpha·A·B + beta·C` with `A` m×k, `B` k×n and `C` m×n given as strided views.
+    ///
+    /// # Panics
+    /// If the shapes do not agree or a slice is too short for its shape and strides.
+    fn gemm(alpha: Self, a: MatRef<'_, Self>, b: MatRef<'_, Self>, beta: Self, c: (&mut [Self], usize, usize, usize, usize)) {
+        let (ad, am, ak, ars, acs) = a;
+        let (bd, bk, bn, brs, bcs) = b;
+        let (cd, cm, cn, crs, ccs) = c;
+        assert!(am == cm && bn == cn && ak == bk, "gemm: shapes {am}x{ak} · {bk}x{bn} -> {cm}x{cn}");
+        if cm == 0 || cn == 0 {
+            return;
+        }
+        if cm <= THIN || cn <= THIN || ak <= THIN {
+            for i in 0..cm {
+                for j in 0..cn {
+                    let mut s = Self::ZERO;
+                    for l in 0..ak {
+                        s += ad[i * ars + l * acs] * bd[l * brs + j * bcs];
+                    }
+                    let c = &mut cd[i * crs + j * ccs];
+                    *c = if beta == Self::ZERO { alpha * s } else { alpha * s + beta * *c };
+                }
+            }
+            return;
+        }
+        let av = DMatrixView::from_slice_with_strides(ad, am, ak, ars, acs);
+        let bv = DMatrixView::from_slice_with_strides(bd, bk, bn, brs, bcs);
+        let mut cv = DMatrixViewMut::from_slice_with_strides_mut(cd, cm, cn, crs, ccs);
+        cv.gemm(alpha, &av, &bv, beta);
+    }
+}
+
+impl Gemm for f32 {}
+impl Gemm for f64 {}
+
+/// A row-major `rows × cols` operand.
+#[must_use]
+pub const fn row_major<T>(data: &[T], rows: usize, cols: usize) -> MatRef<'_, T> {
+    (data, rows, cols, cols, 1)
+}
+
+/// The transpose of a row-major `rows × cols` matrix, as a `cols × rows` operand.
+#[must_use]
+pub const fn transposed<T>(data: &[T], rows: usize, cols: usize) -> MatRef<'_, T> {
+    (data, cols, rows, 1, cols)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strided_products_match_naive_loops() {
+        // Large enough (> 5 in every dimension) to take the matrixmultiply path.
+        let (m, k, n) = (9, 7, 8);
+        let a: Vec<f64> = (0..m * k).map(|i| f64::from(u32::try_from(i).expect("small")) * 0.1 - 2.0).collect();
+        let b: Vec<f64> = (0..k * n).map(|i| (f64::from(u32::try_from(i).expect("small")) * 0.37).sin()).collect();
+        let mut c = vec![1.0; m * n];
+        f64::gemm(2.0, row_major(&a, m, k), row_major(&b, k, n), 0.5, (&mut c, m, n, n, 1));
+        for i in 0..m {
+            for j in 0..n {
+                let s: f64 = (0..k).map(|l| a[i * k + l] * b[l * n + j]).sum();
+                assert!((c[i * n + j] - (2.0 * s + 0.5)).abs() < 1e-12, "entry ({i}, {j})");
+            }
+        }
+        // Aᵀ·A through swapped strides, and a thin (3-column) product.
+        let mut g = vec![0.0; k * k];
+        f64::gemm(1.0, transposed(&a, m, k), row_major(&a, m, k), 0.0, (&mut g, k, k, k, 1));
+        let s: f64 = (0..m).map(|l| a[l * k + 2] * a[l * k + 5]).sum();
+        assert!((g[2 * k + 5] - s).abs() < 1e-12, "AᵀA entry");
+        let mut t = vec![0.0; m * 3];
+        f64::gemm(1.0, row_major(&a, m, k), (&b, k, 3, n, 1), 0.0, (&mut t, m, 3, 3, 1));
+        let s: f64 = (0..k).map(|l| a[4 * k + l] * b[l * n + 1]).sum();
+        assert!((t[4 * 3 + 1] - s).abs() < 1e-12, "thin product");
+    }
+}

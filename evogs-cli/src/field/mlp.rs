@@ -1,0 +1,269 @@
+//! The velocity MLP of EvoGS (method.md section 2), batched over rows with GEMM kernels.
+//!
+//! ```text
+//! trunk:  T = F·W0ᵀ + b0                     (feature_dim → W, no activation after it)
+//! heads:  H = relu(T)·W1ᵀ + b1               (W → 3W: the three heads' first layers, fused)
+//!         Y_h = relu(H_h)·W2_hᵀ + b2_h       (W → 3 per head: velocity, angular velocity, log-scale rate)
+//! output: [s_v·Y_v, s_ω·Y_ω, s_s·Y_s]        (learnable output scales, init 10, 1, 1)
+//! ```
+//!
+//! Parameter layout (flat, row-major `[out][in]` matrices): `W0 (W×F), b0 (W), W1 (3W×W),
+//! b1 (3W), W2 (9×W: rows 3h..3h+3 belong to head h), b2 (9), scales (3)`. Xavier-uniform
+//! weights (gain 1), zero biases: the initial velocity is small but not zero.
+
+use super::gemm::{Gemm, row_major, transposed};
+use evogs_math::Real;
+use evogs_math::rng::SplitMix64;
+
+/// Outputs per row: velocity (3), world-frame angular velocity (3), log-scale rate (3).
+pub const N_OUT: usize = 9;
+
+/// The MLP's sizes and its parameter offsets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Mlp {
+    /// Input (feature) dimension F.
+    pub input: usize,
+    /// Hidden width W.
+    pub width: usize,
+}
+
+/// Per-row activations of one batch, kept for the backward pass (caller-owned, reused).
+#[derive(Clone, Debug, Default)]
+pub struct MlpActivations<T> {
+    /// Trunk pre-activation T (rows × W).
+    pub trunk: Vec<T>,
+    /// relu(T) (rows × W).
+    pub trunk_relu: Vec<T>,
+    /// Head pre-activations H (rows × 3W).
+    pub heads: Vec<T>,
+    /// relu(H) (rows × 3W).
+    pub heads_relu: Vec<T>,
+    /// Unscaled outputs Y (rows × 9).
+    pub raw: Vec<T>,
+    /// Scratch for backward (rows × 3W).
+    pub d_heads: Vec<T>,
+    /// Scratch for backward (rows × W).
+    pub d_trunk: Vec<T>,
+    /// Scratch for backward (rows × 9).
+    pub d_raw: Vec<T>,
+}
+
+impl<T: Real> MlpActivations<T> {
+    /// Buffers for up to `rows` rows of an MLP.
+    #[must_use]
+    pub fn new(mlp: &Mlp, rows: usize) -> Self {
+        let w = mlp.width;
+        Self {
+            trunk: vec![T::ZERO; rows * w],
+            trunk_relu: vec![T::ZERO; rows * w],
+            heads: vec![T::ZERO; rows * 3 * w],
+            heads_relu: vec![T::ZERO; rows * 3 * w],
+            raw: vec![T::ZERO; rows * N_OUT],
+            d_heads: vec![T::ZERO; rows * 3 * w],
+            d_trunk: vec![T::ZERO; rows * w],
+            d_raw: vec![T::ZERO; rows * N_OUT],
+        }
+    }
+}
+
+impl Mlp {
+    fn w0(&self) -> usize {
+        0
+    }
+    fn b0(&self) -> usize {
+        self.width * self.input
+    }
+    fn w1(&self) -> usize {
+        self.b0() + self.width
+    }
+    fn b1(&self) -> usize {
+        self.w1() + 3 * self.width * self.width
+    }
+    fn w2(&self) -> usize {
+        self.b1() + 3 * self.width
+    }
+    fn b2(&self) -> usize {
+        self.w2() + N_OUT * self.width
+    }
+    /// Offset of the three output scales.
+    #[must_use]
+    pub fn scales_offset(&self) -> usize {
+        self.b2() + N_OUT
+    }
+    /// Number of parameters, including the three output scales.
+    #[must_use]
+    pub fn n_params(&self) -> usize {
+        self.scales_offset() + 3
+    }
+
+    /// Xavier-uniform weights, zero biases, output scales `scales`.
+    pub fn init_params<T: Real>(&self, rng: &mut SplitMix64, scales: [f64; 3], out: &mut [T]) {
+        let (f, w) = (self.input, self.width);
+        let mut xavier = |dst: &mut [T], fan_in: usize, fan_out: usize| {
+            #[allow(clippy::cast_precision_loss, reason = "layer sizes are small")]
+            let a = (6.0 / (fan_in + fan_out) as f64).sqrt();
+            for v in dst {
+                *v = T::from_f64(rng.uniform(-a, a));
+            }
+        };
+        xavier(&mut out[self.w0()..self.b0()], f, w);
+        for h in 0..3 {
+            let s = self.w1() + h * w * w;
+            xavier(&mut out[s..s + w * w], w, w);
+            let s = self.w2() + h * 3 * w;
+            xavier(&mut out[s..s + 3 * w], w, 3);
+        }
+        for v in &mut out[self.b0()..self.w1()] {
+            *v = T::ZERO;
+        }
+        for v in &mut out[self.b1()..self.w2()] {
+            *v = T::ZERO;
+        }
+        for v in &mut out[self.b2()..self.scales_offset()] {
+            *v = T::ZERO;
+        }
+        for (v, s) in out[self.scales_offset()..self.n_params()].iter_mut().zip(scales) {
+            *v = T::from_f64(s);
+        }
+    }
+
+    /// Forward pass for `rows` rows of `features` (rows × F, row-major); writes the scaled
+    /// outputs (rows × 9) and keeps the activations.
+    pub fn forward<T: Gemm>(&self, params: &[T], features: &[T], rows: usize, act: &mut MlpActivations<T>, out: &mut [T]) {
+        let (f, w) = (self.input, self.width);
+        let p = params;
+        fill_rows(&mut act.trunk[..rows * w], &p[self.b0()..self.w1()]);
+        T::gemm(T::ONE, row_major(&features[..rows * f], rows, f), transposed(&p[..self.b0()], w, f), T::ONE, (&mut act.trunk[..rows * w], rows, w, w, 1));
+        relu(&act.trunk[..rows * w], &mut act.trunk_relu[..rows * w]);
+        fill_rows(&mut act.heads[..rows * 3 * w], &p[self.b1()..self.w2()]);
+        T::gemm(
+            T::ONE,
+            row_major(&act.trunk_relu[..rows * w], rows, w),
+            transposed(&p[self.w1()..self.b1()], 3 * w, w),
+            T::ONE,
+            (&mut act.heads[..rows * 3 * w], rows, 3 * w, 3 * w, 1),
+        );
+        relu(&act.heads[..rows * 3 * w], &mut act.heads_relu[..rows * 3 * w]);
+        fill_rows(&mut act.raw[..rows * N_OUT], &p[self.b2()..self.scales_offset()]);
+        for h in 0..3 {
+            let w2 = &p[self.w2() + 3 * h * w..self.w2() + 3 * (h + 1) * w];
+            T::gemm(
+                T::ONE,
+                (&act.heads_relu[h * w..], rows, w, 3 * w, 1),
+                transposed(w2, 3, w),
+                T::ONE,
+                (&mut act.raw[3 * h..], rows, 3, N_OUT, 1),
+            );
+        }
+        let scales = &p[self.scales_offset()..self.n_params()];
+        for (o, r) in out[..rows * N_OUT].chunks_exact_mut(N_OUT).zip(act.raw.chunks_exact(N_OUT)) {
+            for k in 0..N_OUT {
+                o[k] = r[k] * scales[k / 3];
+            }
+        }
+    }
+
+    /// Backward pass after [`forward`](Self::forward) on the same rows: given `d_out`
+    /// (rows × 9), **adds** the parameter gradient into `d_params` (this MLP's slice) and
+    /// **writes** `d_features` (rows × F).
+    pub fn backward<T: Gemm>(
+        &self,
+        params: &[T],
+        features: &[T],
+        rows: usize,
+        act: &mut MlpActivations<T>,
+        d_out: &[T],
+        d_features: &mut [T],
+        d_params: &mut [T],
+    ) {
+        let (f, w) = (self.input, self.width);
+        let p = params;
+        let so = self.scales_offset();
+        for ((dr, d), r) in act.d_raw[..rows * N_OUT].chunks_exact_mut(N_OUT).zip(d_out.chunks_exact(N_OUT)).zip(act.raw.chunks_exact(N_OUT)) {
+            for k in 0..N_OUT {
+                d_params[so + k / 3] += d[k] * r[k];
+                dr[k] = d[k] * p[so + k / 3];
+            }
+        }
+        col_sums(&act.d_raw[..rows * N_OUT], N_OUT, &mut d_params[self.b2()..so]);
+        for h in 0..3 {
+            let w2 = self.w2() + 3 * h * w;
+            // dW2_h += d_raw_hᵀ · relu(H_h)
+            T::gemm(
+                T::ONE,
+                (&act.d_raw[3 * h..], 3, rows, 1, N_OUT),
+                (&act.heads_relu[h * w..], rows, w, 3 * w, 1),
+                T::ONE,
+                (&mut d_params[w2..w2 + 3 * w], 3, w, w, 1),
+            );
+            // d relu(H_h) = d_raw_h · W2_h
+            T::gemm(
+                T::ONE,
+                (&act.d_raw[3 * h..], rows, 3, N_OUT, 1),
+                row_major(&p[w2..w2 + 3 * w], 3, w),
+                T::ZERO,
+                (&mut act.d_heads[h * w..], rows, w, 3 * w, 1),
+            );
+        }
+        relu_mask(&act.heads[..rows * 3 * w], &mut act.d_heads[..rows * 3 * w]);
+        col_sums(&act.d_heads[..rows * 3 * w], 3 * w, &mut d_params[self.b1()..self.w2()]);
+        T::gemm(
+            T::ONE,
+            transposed(&act.d_heads[..rows * 3 * w], rows, 3 * w),
+            row_major(&act.trunk_relu[..rows * w], rows, w),
+            T::ONE,
+            (&mut d_params[self.w1()..self.b1()], 3 * w, w, w, 1),
+        );
+        T::gemm(
+            T::ONE,
+            row_major(&act.d_heads[..rows * 3 * w], rows, 3 * w),
+            row_major(&p[self.w1()..self.b1()], 3 * w, w),
+            T::ZERO,
+            (&mut act.d_trunk[..rows * w], rows, w, w, 1),
+        );
+        relu_mask(&act.trunk[..rows * w], &mut act.d_trunk[..rows * w]);
+        col_sums(&act.d_trunk[..rows * w], w, &mut d_params[self.b0()..self.w1()]);
+        T::gemm(
+            T::ONE,
+            transposed(&act.d_trunk[..rows * w], rows, w),
+            row_major(&features[..rows * f], rows, f),
+            T::ONE,
+            (&mut d_params[..self.b0()], w, f, f, 1),
+        );
+        T::gemm(
+            T::ONE,
+            row_major(&act.d_trunk[..rows * w], rows, w),
+            row_major(&p[..self.b0()], w, f),
+            T::ZERO,
+            (&mut d_features[..rows * f], rows, f, f, 1),
+        );
+    }
+}
+
+fn fill_rows<T: Real>(dst: &mut [T], row: &[T]) {
+    for r in dst.chunks_exact_mut(row.len()) {
+        r.copy_from_slice(row);
+    }
+}
+
+fn relu<T: Real>(x: &[T], out: &mut [T]) {
+    for (o, &v) in out.iter_mut().zip(x) {
+        *o = if v > T::ZERO { v } else { T::ZERO };
+    }
+}
+
+fn relu_mask<T: Real>(pre: &[T], grad: &mut [T]) {
+    for (g, &v) in grad.iter_mut().zip(pre) {
+        if v <= T::ZERO {
+            *g = T::ZERO;
+        }
+    }
+}
+
+fn col_sums<T: Real>(m: &[T], cols: usize, out: &mut [T]) {
+    for row in m.chunks_exact(cols) {
+        for (o, &v) in out.iter_mut().zip(row) {
+            *o += v;
+        }
+    }
+}

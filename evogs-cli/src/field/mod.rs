@@ -1,0 +1,12 @@
+//! The neural velocity field: HexPlane encoder + MLP, batched, with exact VJPs.
+
+pub mod gemm;
+pub mod hexplane;
+pub mod mlp;
+pub mod neural;
+pub mod regularize;
+
+pub use gemm::Gemm;
+pub use hexplane::{HexPlane, HexPlaneConfig, TimeMapping};
+pub use mlp::Mlp;
+pub use neural::{NeuralField, NeuralFieldConfig, gaussian_layout};

@@ -1,0 +1,378 @@
+//! [`NeuralField`]: HexPlane features + the velocity MLP, batched over all Gaussians, with an
+//! exact VJP, and its [`VectorField`] implementation for the Gaussian state.
+//!
+//! Per Gaussian the field maps a position `x` and a time `t` to
+//! `[v (3), ω (3), ṡ (3)] = MLP(HexPlane(x, t))`: the velocity, the **world-frame** angular
+//! velocity and the log-scale rate. As a vector field on the state layout
+//! `[Euclidean(3) position, So3 rotation, Euclidean(3) log-scale]` it depends on the position
+//! only, so its VJP has zero rotation and log-scale components.
+//!
+//! Work is split into fixed chunks of [`CHUNK`] Gaussians (rayon over chunks when the
+//! parallelism value asks for it). MLP weight gradients are accumulated per chunk and reduced
+//! in chunk order; plane gradients are scattered plane by plane (planes are disjoint parameter
+//! ranges) in Gaussian order. Results are therefore bitwise identical for any thread count.
+//! Buffers are kept between calls and only grow.
+
+use super::gemm::Gemm;
+use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
+use super::mlp::{Mlp, MlpActivations, N_OUT};
+use evogs_math::Par;
+use evogs_math::rng::SplitMix64;
+use evogs_ode::{Block, StateLayout, VectorField};
+
+/// Gaussians per work chunk.
+pub const CHUNK: usize = 128;
+/// State entries per Gaussian: position (3), quaternion (4), log-scale (3).
+pub const STATE_STRIDE: usize = 10;
+
+/// The per-Gaussian state layout of the dynamics: position, rotation, log-scale.
+#[must_use]
+pub fn gaussian_layout(count: usize) -> StateLayout {
+    StateLayout::particles(&[Block::Euclidean(3), Block::So3, Block::Euclidean(3)], count)
+}
+
+/// The configuration of the neural field.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct NeuralFieldConfig {
+    /// The HexPlane shape.
+    pub hexplane: HexPlaneConfig,
+    /// MLP hidden width W.
+    pub width: usize,
+    /// Initial output scales (velocity, angular velocity, log-scale rate).
+    pub output_scales: [f64; 3],
+}
+
+/// Scratch of one chunk (per worker; contents never outlive a chunk).
+#[derive(Debug)]
+struct ChunkScratch<T> {
+    samples: Vec<T>,
+    features: Vec<T>,
+    d_features: Vec<T>,
+    act: MlpActivations<T>,
+}
+
+impl<T: Gemm> ChunkScratch<T> {
+    fn new(hex: &HexPlane, mlp: &Mlp) -> Self {
+        Self {
+            samples: vec![T::ZERO; CHUNK * hex.n_lookups() * hex.channels()],
+            features: vec![T::ZERO; CHUNK * hex.feature_dim()],
+            d_features: vec![T::ZERO; CHUNK * hex.feature_dim()],
+            act: MlpActivations::new(mlp, CHUNK),
+        }
+    }
+}
+
+/// HexPlane + MLP with all parameters in one flat vector `[planes…, MLP…, output scales]`.
+#[derive(Debug)]
+pub struct NeuralField<T> {
+    hex: HexPlane,
+    mlp: Mlp,
+    params: Vec<T>,
+    count: usize,
+    par: Par,
+    partials: Vec<T>,
+    lookups: Vec<Lookup<T>>,
+    d_samples: Vec<T>,
+    d_pos: Vec<T>,
+}
+
+impl<T: Gemm> NeuralField<T> {
+    /// A freshly initialised field over the box `[aabb_min, aabb_max]`.
+    #[must_use]
+    pub fn new(cfg: &NeuralFieldConfig, aabb_min: [f64; 3], aabb_max: [f64; 3], time: TimeMapping, seed: u64) -> Self {
+        let hex = HexPlane::new(&cfg.hexplane, aabb_min, aabb_max, time);
+        let mlp = Mlp { input: hex.feature_dim(), width: cfg.width };
+        let mut params = vec![T::ZERO; hex.n_params() + mlp.n_params()];
+        let mut rng = SplitMix64::new(seed);
+        hex.init_params(&mut rng, &mut params[..hex.n_params()]);
+        mlp.init_params(&mut rng, cfg.output_scales, &mut params[hex.n_params()..]);
+        Self { hex, mlp, params, count: 0, par: Par::Seq, partials: Vec::new(), lookups: Vec::new(), d_samples: Vec::new(), d_pos: Vec::new() }
+    }
+
+    /// The HexPlane layout.
+    #[must_use]
+    pub const fn hexplane(&self) -> &HexPlane {
+        &self.hex
+    }
+    /// The MLP shape.
+    #[must_use]
+    pub const fn mlp(&self) -> &Mlp {
+        &self.mlp
+    }
+    /// All parameters.
+    #[must_use]
+    pub fn params(&self) -> &[T] {
+        &self.params
+    }
+    /// All parameters, mutable (for the optimiser and the gradient checks).
+    pub fn params_mut(&mut self) -> &mut [T] {
+        &mut self.params
+    }
+    /// The range of the plane parameters (optimiser group "grid").
+    #[must_use]
+    pub fn grid_range(&self) -> core::ops::Range<usize> {
+        0..self.hex.n_params()
+    }
+    /// The range of the MLP parameters and output scales (optimiser group "deformation").
+    #[must_use]
+    pub fn mlp_range(&self) -> core::ops::Range<usize> {
+        self.hex.n_params()..self.params.len()
+    }
+    /// Sets the number of Gaussians the [`VectorField`] implementation integrates.
+    pub fn set_count(&mut self, n: usize) {
+        self.count = n;
+    }
+    /// Sets the parallelism.
+    pub fn set_par(&mut self, par: Par) {
+        self.par = par;
+    }
+
+    /// Evaluates the field at `n` positions (position `i` at `positions[i·stride..i·stride+3]`)
+    /// and time `t`; writes `[v, ω, ṡ]` into `out[i·9..i·9+9]`.
+    ///
+    /// # Panics
+    /// If the buffers are too short for `n`.
+    pub fn eval_batch(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
+        assert!(n == 0 || (positions.len() >= (n - 1) * stride + 3 && out.len() >= n * N_OUT), "batch buffers too short");
+        let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
+        let run = |scratch: &mut ChunkScratch<T>, (ci, out_c): (usize, &mut [T])| {
+            let rows = out_c.len() / N_OUT;
+            let pos = &positions[ci * CHUNK * stride..];
+            encode_chunk(hex, params, t, pos, stride, rows, scratch);
+            mlp.forward(&params[hex.n_params()..], &scratch.features, rows, &mut scratch.act, out_c);
+        };
+        let chunks = out[..n * N_OUT].chunks_mut(CHUNK * N_OUT).enumerate();
+        match self.par {
+            Par::Seq => {
+                let mut s = ChunkScratch::new(hex, mlp);
+                chunks.for_each(|c| run(&mut s, c));
+            }
+            #[cfg(feature = "rayon")]
+            Par::Rayon => {
+                use rayon::prelude::*;
+                out[..n * N_OUT]
+                    .par_chunks_mut(CHUNK * N_OUT)
+                    .enumerate()
+                    .for_each_init(|| ChunkScratch::new(hex, mlp), run);
+            }
+        }
+    }
+
+    /// VJP of [`eval_batch`](Self::eval_batch): given `d_out` (n × 9), **adds**
+    /// `∂/∂position` into `d_positions[i·d_stride..+3]` and `∂/∂θ` into `d_params`.
+    ///
+    /// # Panics
+    /// If the buffers are too short.
+    pub fn vjp_batch(
+        &mut self,
+        t: T,
+        positions: &[T],
+        stride: usize,
+        n: usize,
+        d_out: &[T],
+        d_positions: &mut [T],
+        d_stride: usize,
+        d_params: &mut [T],
+    ) {
+        assert!(d_out.len() >= n * N_OUT && d_params.len() == self.params.len(), "vjp buffers have the wrong size");
+        let n_chunks = n.div_ceil(CHUNK);
+        let n_lk = self.hex.n_lookups();
+        let ch = self.hex.channels();
+        let n_mlp = self.mlp.n_params();
+        self.partials.clear();
+        self.partials.resize(n_chunks * n_mlp, T::ZERO);
+        self.lookups.resize(n * n_lk, Lookup::default());
+        self.d_samples.resize(n * n_lk * ch, T::ZERO);
+        self.d_pos.clear();
+        self.d_pos.resize(n * 3, T::ZERO);
+        let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
+        let run = |scratch: &mut ChunkScratch<T>, (ci, (partial, (lks, (dss, dp)))): (usize, (&mut [T], (&mut [Lookup<T>], (&mut [T], &mut [T]))))| {
+            let rows = lks.len() / n_lk;
+            let pos = &positions[ci * CHUNK * stride..];
+            encode_chunk(hex, params, t, pos, stride, rows, scratch);
+            let mut out = [T::ZERO; CHUNK * N_OUT];
+            mlp.forward(&params[hex.n_params()..], &scratch.features, rows, &mut scratch.act, &mut out[..rows * N_OUT]);
+            let d_o = &d_out[ci * CHUNK * N_OUT..ci * CHUNK * N_OUT + rows * N_OUT];
+            let ChunkScratch { features, d_features, act, .. } = scratch;
+            mlp.backward(&params[hex.n_params()..], features, rows, act, d_o, d_features, partial);
+            decode_chunk_vjp(hex, params, t, pos, stride, rows, scratch, lks, dss, dp);
+        };
+        let items = self
+            .partials
+            .chunks_mut(n_mlp)
+            .zip(self.lookups.chunks_mut(CHUNK * n_lk).zip(self.d_samples.chunks_mut(CHUNK * n_lk * ch).zip(self.d_pos.chunks_mut(CHUNK * 3))))
+            .enumerate();
+        match self.par {
+            Par::Seq => {
+                let mut s = ChunkScratch::new(hex, mlp);
+                items.for_each(|c| run(&mut s, c));
+            }
+            #[cfg(feature = "rayon")]
+            Par::Rayon => {
+                use rayon::prelude::*;
+                self.partials
+                    .par_chunks_mut(n_mlp)
+                    .zip(
+                        self.lookups
+                            .par_chunks_mut(CHUNK * n_lk)
+                            .zip(self.d_samples.par_chunks_mut(CHUNK * n_lk * ch).zip(self.d_pos.par_chunks_mut(CHUNK * 3))),
+                    )
+                    .enumerate()
+                    .for_each_init(|| ChunkScratch::new(hex, mlp), run);
+            }
+        }
+        for i in 0..n {
+            for a in 0..3 {
+                d_positions[i * d_stride + a] += self.d_pos[i * 3 + a];
+            }
+        }
+        let off = self.hex.n_params();
+        for partial in self.partials.chunks(n_mlp) {
+            for (d, &p) in d_params[off..].iter_mut().zip(partial) {
+                *d += p;
+            }
+        }
+        self.scatter_planes(n, &mut d_params[..off]);
+    }
+
+    /// Adds the stored per-lookup sample gradients into the plane gradients, plane by plane
+    /// (in parallel over planes), each in Gaussian order.
+    fn scatter_planes(&self, n: usize, d_grid: &mut [T]) {
+        let hex = &self.hex;
+        let n_lk = hex.n_lookups();
+        let ch = hex.channels();
+        let mut slices: Vec<(usize, usize, &mut [T])> = Vec::with_capacity(n_lk);
+        let mut rest = d_grid;
+        let mut consumed = 0;
+        for l in 0..hex.levels() {
+            for p in 0..6 {
+                let r = hex.plane_range(l, p);
+                debug_assert_eq!(r.start, consumed, "planes are contiguous");
+                let (head, tail) = rest.split_at_mut(r.len());
+                slices.push((l * 6 + p, r.start, head));
+                rest = tail;
+                consumed = r.end;
+            }
+        }
+        let (lookups, d_samples) = (&self.lookups, &self.d_samples);
+        let work = |(k, start, plane): (usize, usize, &mut [T])| {
+            for i in 0..n {
+                let mut lk = lookups[i * n_lk + k];
+                lk.base -= start;
+                let g = &d_samples[(i * n_lk + k) * ch..(i * n_lk + k + 1) * ch];
+                HexPlane::scatter(plane, &lk, g);
+            }
+        };
+        match self.par {
+            Par::Seq => slices.into_iter().for_each(work),
+            #[cfg(feature = "rayon")]
+            Par::Rayon => {
+                use rayon::prelude::*;
+                slices.into_par_iter().for_each(work);
+            }
+        }
+    }
+}
+
+/// Samples every plane for `rows` positions and forms the features (Hadamard per level).
+fn encode_chunk<T: Gemm>(hex: &HexPlane, params: &[T], t: T, pos: &[T], stride: usize, rows: usize, s: &mut ChunkScratch<T>) {
+    let ch = hex.channels();
+    let n_lk = hex.n_lookups();
+    let fd = hex.feature_dim();
+    for r in 0..rows {
+        let p = [pos[r * stride], pos[r * stride + 1], pos[r * stride + 2]];
+        let (c, _) = hex.coords(p, t);
+        for l in 0..hex.levels() {
+            let feat = &mut s.features[r * fd + l * ch..r * fd + (l + 1) * ch];
+            feat.fill(T::ONE);
+            for q in 0..6 {
+                let lk = hex.lookup(l, q, &c);
+                let k = r * n_lk + l * 6 + q;
+                let smp = &mut s.samples[k * ch..(k + 1) * ch];
+                HexPlane::sample(params, &lk, smp);
+                for (f, &v) in feat.iter_mut().zip(smp.iter()) {
+                    *f *= v;
+                }
+            }
+        }
+    }
+}
+
+/// From `d_features`, the per-lookup sample gradients (stored for the plane scatter) and the
+/// position gradients (written into `d_pos`, 3 per row).
+fn decode_chunk_vjp<T: Gemm>(
+    hex: &HexPlane,
+    params: &[T],
+    t: T,
+    pos: &[T],
+    stride: usize,
+    rows: usize,
+    s: &ChunkScratch<T>,
+    lks: &mut [Lookup<T>],
+    dss: &mut [T],
+    d_pos: &mut [T],
+) {
+    let ch = hex.channels();
+    let n_lk = hex.n_lookups();
+    let fd = hex.feature_dim();
+    let mut prefix = [T::ZERO; 256];
+    assert!(ch <= 256, "at most 256 channels");
+    for r in 0..rows {
+        let p = [pos[r * stride], pos[r * stride + 1], pos[r * stride + 2]];
+        let (c, dcdp) = hex.coords(p, t);
+        let mut d_c = [T::ZERO; 4];
+        for l in 0..hex.levels() {
+            let d_f = &s.d_features[r * fd + l * ch..r * fd + (l + 1) * ch];
+            // ds_q = d_f ⊙ Π_{q' ≠ q} s_q' via prefix and suffix products (no division).
+            let base = (r * n_lk + l * 6) * ch;
+            let smp = &s.samples[base..base + 6 * ch];
+            prefix[..ch].fill(T::ONE);
+            for q in 0..6 {
+                let k = r * n_lk + l * 6 + q;
+                let ds = &mut dss[k * ch..(k + 1) * ch];
+                for cc in 0..ch {
+                    ds[cc] = d_f[cc] * prefix[cc];
+                    prefix[cc] *= smp[q * ch + cc];
+                }
+            }
+            let mut suffix = [T::ONE; 256];
+            for q in (0..6).rev() {
+                let k = r * n_lk + l * 6 + q;
+                let ds = &mut dss[k * ch..(k + 1) * ch];
+                for cc in 0..ch {
+                    ds[cc] *= suffix[cc];
+                    suffix[cc] *= smp[q * ch + cc];
+                }
+                let lk = hex.lookup(l, q, &c);
+                let (gu, gv) = HexPlane::sample_coord_grad(params, &lk, ds);
+                let (i, j) = super::hexplane::PLANE_AXES[q];
+                d_c[i] += gu;
+                d_c[j] += gv;
+                lks[k] = lk;
+            }
+        }
+        for a in 0..3 {
+            d_pos[r * 3 + a] = d_c[a] * dcdp[a];
+        }
+    }
+}
+
+impl<T: Gemm> VectorField<T> for NeuralField<T> {
+    fn dim(&self) -> usize {
+        self.count * N_OUT
+    }
+    fn layout(&self) -> StateLayout {
+        gaussian_layout(self.count)
+    }
+    fn n_params(&self) -> usize {
+        self.params.len()
+    }
+    fn eval(&mut self, t: T, y: &[T], dydt: &mut [T]) {
+        let n = self.count;
+        self.eval_batch(t, y, STATE_STRIDE, n, dydt);
+    }
+    fn vjp(&mut self, t: T, y: &[T], w: &[T], d_y: &mut [T], d_params: &mut [T]) {
+        let n = self.count;
+        self.vjp_batch(t, y, STATE_STRIDE, n, w, d_y, N_OUT, d_params);
+    }
+}

@@ -1,0 +1,3 @@
+//! Run folders: checkpoints, logs and resolved configurations.
+
+pub mod archive;

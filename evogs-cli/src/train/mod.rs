@@ -1,0 +1,4 @@
+//! Training: the optimiser, the losses and regularisers, densification and the training loop.
+
+pub mod adam;
+pub mod coherence;

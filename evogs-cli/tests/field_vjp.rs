@@ -1,0 +1,151 @@
+//! The neural field's VJP (positions and every parameter: planes, MLP weights, output
+//! scales) against central differences in f64, the dot-product test, and bitwise agreement of
+//! sequential and parallel evaluation.
+
+use evogs_cli::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
+use evogs_math::Par;
+use evogs_math::diff::{GradCheck, central_gradient, central_jvp, vjp_dot_test};
+use evogs_math::rng::SplitMix64;
+use evogs_ode::VectorField;
+
+fn small_field(time: TimeMapping) -> NeuralField<f64> {
+    let cfg = NeuralFieldConfig {
+        hexplane: HexPlaneConfig { channels: 3, resolution: [4, 3, 5, 4], multires: vec![1, 2] },
+        width: 8,
+        output_scales: [10.0, 1.0, 1.0],
+    };
+    let mut f = NeuralField::new(&cfg, [-1.0, -1.5, -0.5], [1.0, 1.0, 1.5], time, 7);
+    // Perturb the time planes away from 1 so that time actually matters.
+    let mut rng = SplitMix64::new(11);
+    for v in f.params_mut().iter_mut() {
+        *v += rng.uniform(-0.2, 0.2);
+    }
+    f
+}
+
+/// Gaussian states `[p (3), q (4), s (3)]` with positions strictly inside the box.
+fn states(n: usize, seed: u64) -> Vec<f64> {
+    let mut rng = SplitMix64::new(seed);
+    let mut y = Vec::with_capacity(n * 10);
+    for _ in 0..n {
+        y.extend([rng.uniform(-0.9, 0.9), rng.uniform(-1.4, 0.9), rng.uniform(-0.4, 1.4)]);
+        y.extend([1.0, 0.0, 0.0, 0.0]);
+        y.extend([-3.0, -3.0, -3.0]);
+    }
+    y
+}
+
+#[test]
+fn vjp_matches_central_differences_for_positions_and_parameters() {
+    for time in [TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 }, TimeMapping::Raw] {
+        let mut f = small_field(time);
+        let n = 5;
+        f.set_count(n);
+        let y = states(n, 3);
+        let t = 0.37;
+        let mut rng = SplitMix64::new(5);
+        let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();
+        let mut d_y = vec![0.0; n * 9];
+        let mut d_p = vec![0.0; f.n_params()];
+        f.vjp(t, &y, &w, &mut d_y, &mut d_p);
+        // Positions: L = <w, f(y)>.
+        let mut num = vec![0.0; y.len()];
+        let mut yy = y.clone();
+        let mut out = vec![0.0; n * 9];
+        central_gradient(
+            |v: &[f64]| {
+                f.eval(t, v, &mut out);
+                out.iter().zip(&w).map(|(a, b)| a * b).sum()
+            },
+            &mut yy,
+            &mut num,
+        );
+        let analytic: Vec<f64> = (0..n).flat_map(|i| d_y[i * 9..i * 9 + 3].to_vec()).collect();
+        let numeric: Vec<f64> = (0..n).flat_map(|i| num[i * 10..i * 10 + 3].to_vec()).collect();
+        GradCheck::new(1e-8, 1e-6).check(&analytic, &numeric).assert_passed("d position");
+        for i in 0..n {
+            assert!(d_y[i * 9 + 3..i * 9 + 9].iter().all(|&v| v == 0.0), "no rotation or scale dependence");
+            assert!(num[i * 10 + 3..i * 10 + 10].iter().all(|&v| v.abs() < 1e-12), "numerically too");
+        }
+        // Every parameter (the field is small enough).
+        let p0 = f.params().to_vec();
+        let mut num = vec![0.0; p0.len()];
+        let mut pp = p0.clone();
+        central_gradient(
+            |v: &[f64]| {
+                f.params_mut().copy_from_slice(v);
+                f.eval(t, &y, &mut out);
+                out.iter().zip(&w).map(|(a, b)| a * b).sum()
+            },
+            &mut pp,
+            &mut num,
+        );
+        f.params_mut().copy_from_slice(&p0);
+        let rep = GradCheck::new(1e-8, 1e-6).check(&d_p, &num);
+        rep.assert_passed("d parameters");
+        println!("neural field {time:?}: positions and {} parameters, {rep}", p0.len());
+    }
+}
+
+#[test]
+fn vjp_passes_the_dot_product_test() {
+    let mut f = small_field(TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 });
+    let n = 7;
+    f.set_count(n);
+    let y = states(n, 9);
+    let np = f.n_params();
+    let p0 = f.params().to_vec();
+    // Inputs: all positions (3n) and all parameters; outputs: 9n.
+    let pos: Vec<f64> = (0..n).flat_map(|i| y[i * 10..i * 10 + 3].to_vec()).collect();
+    let mut x0 = pos.clone();
+    x0.extend(&p0);
+    let eval = |f: &mut NeuralField<f64>, x: &[f64], out: &mut [f64]| {
+        let mut yy = y.clone();
+        for i in 0..n {
+            yy[i * 10..i * 10 + 3].copy_from_slice(&x[i * 3..i * 3 + 3]);
+        }
+        f.params_mut().copy_from_slice(&x[3 * n..]);
+        f.eval(0.6, &yy, out);
+    };
+    let r = vjp_dot_test(
+        |v: &[f64], out: &mut [f64]| central_jvp(|x: &[f64], o: &mut [f64]| eval(&mut f, x, o), &x0, v, out),
+        |w: &[f64], out: &mut [f64]| {
+            let mut g = small_field(TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 });
+            g.params_mut().copy_from_slice(&p0);
+            g.set_count(n);
+            let mut d_y = vec![0.0; 9 * n];
+            let mut d_p = vec![0.0; np];
+            g.vjp(0.6, &y, w, &mut d_y, &mut d_p);
+            for i in 0..n {
+                out[i * 3..i * 3 + 3].copy_from_slice(&d_y[i * 9..i * 9 + 3]);
+            }
+            out[3 * n..].copy_from_slice(&d_p);
+        },
+        3 * n + np,
+        9 * n,
+        21,
+    );
+    assert!(r < 1e-8, "dot-product test residual {r}");
+}
+
+#[cfg(feature = "rayon")]
+#[test]
+fn parallel_evaluation_is_bitwise_sequential() {
+    let mut f = small_field(TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 });
+    let n = 1000; // several chunks
+    f.set_count(n);
+    let y = states(n, 13);
+    let mut rng = SplitMix64::new(17);
+    let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();
+    let mut results = Vec::new();
+    for par in [Par::Seq, Par::Rayon] {
+        f.set_par(par);
+        let mut out = vec![0.0; n * 9];
+        f.eval(0.2, &y, &mut out);
+        let mut d_y = vec![0.0; n * 9];
+        let mut d_p = vec![0.0; f.n_params()];
+        f.vjp(0.2, &y, &w, &mut d_y, &mut d_p);
+        results.push((out, d_y, d_p));
+    }
+    assert!(results[0] == results[1], "Seq and Rayon differ");
+}
