@@ -84,89 +84,75 @@ pub const SMALL_SERIES_THRESHOLD: f64 = 1e-2;
 /// Threshold on θ² below which the long series of the cancelling coefficients are used.
 pub const LONG_SERIES_THRESHOLD: f64 = 1.0;
 
-/// One coefficient function: its series (in θ²), its closed form and the switch point.
-struct Coeff<T> {
-    series: fn(T) -> T,
-    closed: fn(T) -> T,
-    threshold: f64,
-}
+// Each coefficient is a pair of plain functions (series, closed form) and a threshold; the
+// public function picks one. Plain `fn` items (not function pointers) so both branches inline.
 
-impl<T: Real> Coeff<T> {
-    #[inline]
-    fn eval(&self, theta_sq: T) -> T {
-        if theta_sq < T::from_f64(self.threshold) {
-            (self.series)(theta_sq)
-        } else {
-            (self.closed)(theta_sq)
-        }
-    }
+#[inline]
+fn sinc_series<T: Real>(x: T) -> T {
+    horner(x, &SINC)
 }
-
-fn sinc_coeff<T: Real>() -> Coeff<T> {
-    Coeff {
-        series: |x| horner(x, &SINC),
-        closed: |x| {
-            let t = x.sqrt();
-            t.sin() / t
-        },
-        threshold: SMALL_SERIES_THRESHOLD,
-    }
+#[inline]
+fn sinc_closed<T: Real>(x: T) -> T {
+    let t = x.sqrt();
+    t.sin() / t
 }
-
-fn cos_half_coeff<T: Real>() -> Coeff<T> {
-    Coeff {
-        series: |x| horner(x, &COS_HALF),
-        closed: |x| (x.sqrt() * T::HALF).cos(),
-        threshold: SMALL_SERIES_THRESHOLD,
-    }
+#[inline]
+fn cos_half_series<T: Real>(x: T) -> T {
+    horner(x, &COS_HALF)
 }
-
-fn one_minus_cos_coeff<T: Real>() -> Coeff<T> {
-    Coeff {
-        series: |x| horner(x, &ONE_MINUS_COS),
-        closed: |x| {
-            let s = sin_half_over(x);
-            T::TWO * s * s
-        },
-        threshold: SMALL_SERIES_THRESHOLD,
-    }
+#[inline]
+fn cos_half_closed<T: Real>(x: T) -> T {
+    (x.sqrt() * T::HALF).cos()
 }
-
-fn theta_minus_sin_coeff<T: Real>() -> Coeff<T> {
-    Coeff {
-        series: |x| horner(x, &THETA_MINUS_SIN),
-        closed: |x| {
-            let t = x.sqrt();
-            (t - t.sin()) / (x * t)
-        },
-        threshold: LONG_SERIES_THRESHOLD,
-    }
+#[inline]
+fn one_minus_cos_series<T: Real>(x: T) -> T {
+    horner(x, &ONE_MINUS_COS)
 }
-
-fn jinv_coeff_fn<T: Real>() -> Coeff<T> {
-    Coeff {
-        series: |x| horner(x, &JINV),
-        closed: |x| {
-            let t = x.sqrt();
-            let (s, c) = (t * T::HALF).sin_cos();
-            T::ONE / x - c / (s * T::TWO * t)
-        },
-        threshold: LONG_SERIES_THRESHOLD,
-    }
+#[inline]
+fn one_minus_cos_closed<T: Real>(x: T) -> T {
+    let s = sin_half_over(x);
+    T::TWO * s * s
+}
+#[inline]
+fn theta_minus_sin_series<T: Real>(x: T) -> T {
+    horner(x, &THETA_MINUS_SIN)
+}
+#[inline]
+fn theta_minus_sin_closed<T: Real>(x: T) -> T {
+    let t = x.sqrt();
+    (t - t.sin()) / (x * t)
+}
+#[inline]
+fn jinv_series<T: Real>(x: T) -> T {
+    horner(x, &JINV)
+}
+#[inline]
+fn jinv_closed<T: Real>(x: T) -> T {
+    let t = x.sqrt();
+    let (s, c) = (t * T::HALF).sin_cos();
+    T::ONE / x - c / (s * T::TWO * t)
 }
 
 /// sin θ/θ as a function of θ² (limit 1 at 0).
 #[inline]
 #[must_use]
 pub fn sinc<T: Real>(theta_sq: T) -> T {
-    sinc_coeff().eval(theta_sq)
+    if theta_sq < T::from_f64(SMALL_SERIES_THRESHOLD) {
+        sinc_series(theta_sq)
+    } else {
+        sinc_closed(theta_sq)
+    }
 }
 
 /// cos(θ/2) as a function of θ².
 #[inline]
 #[must_use]
 pub fn cos_half<T: Real>(theta_sq: T) -> T {
-    cos_half_coeff().eval(theta_sq)
+    if theta_sq < T::from_f64(SMALL_SERIES_THRESHOLD) {
+        cos_half_series(theta_sq)
+    } else {
+        cos_half_closed(theta_sq)
+    }
 }
 
 /// sin(θ/2)/θ as a function of θ² (limit 1/2): the vector-part factor of the quaternion
@@ -182,14 +168,22 @@ pub fn sin_half_over<T: Real>(theta_sq: T) -> T {
 #[inline]
 #[must_use]
 pub fn one_minus_cos_over_sq<T: Real>(theta_sq: T) -> T {
-    one_minus_cos_coeff().eval(theta_sq)
+    if theta_sq < T::from_f64(SMALL_SERIES_THRESHOLD) {
+        one_minus_cos_series(theta_sq)
+    } else {
+        one_minus_cos_closed(theta_sq)
+    }
 }
 
 /// B = (θ − sin θ)/θ³ as a function of θ² (limit 1/6).
 #[inline]
 #[must_use]
 pub fn theta_minus_sin_over_cube<T: Real>(theta_sq: T) -> T {
-    theta_minus_sin_coeff().eval(theta_sq)
+    if theta_sq < T::from_f64(LONG_SERIES_THRESHOLD) {
+        theta_minus_sin_series(theta_sq)
+    } else {
+        theta_minus_sin_closed(theta_sq)
+    }
 }
 
 /// D = 1/θ² − cot(θ/2)/(2θ) = (1 − (θ/2)·cot(θ/2))/θ² as a function of θ² (limit 1/12).
@@ -199,7 +193,11 @@ pub fn theta_minus_sin_over_cube<T: Real>(theta_sq: T) -> T {
 #[inline]
 #[must_use]
 pub fn jinv_coeff<T: Real>(theta_sq: T) -> T {
-    jinv_coeff_fn().eval(theta_sq)
+    if theta_sq < T::from_f64(LONG_SERIES_THRESHOLD) {
+        jinv_series(theta_sq)
+    } else {
+        jinv_closed(theta_sq)
+    }
 }
 
 #[cfg(test)]
@@ -209,17 +207,33 @@ mod tests {
 
     #[test]
     fn both_branches_agree_at_each_threshold() {
-        let all: [(&str, Coeff<f64>); 5] = [
-            ("sinc", sinc_coeff()),
-            ("cos_half", cos_half_coeff()),
-            ("one_minus_cos", one_minus_cos_coeff()),
-            ("theta_minus_sin", theta_minus_sin_coeff()),
-            ("jinv", jinv_coeff_fn()),
+        type Pair = (&'static str, fn(f64) -> f64, fn(f64) -> f64, f64);
+        let all: [Pair; 5] = [
+            ("sinc", sinc_series, sinc_closed, SMALL_SERIES_THRESHOLD),
+            (
+                "cos_half",
+                cos_half_series,
+                cos_half_closed,
+                SMALL_SERIES_THRESHOLD,
+            ),
+            (
+                "one_minus_cos",
+                one_minus_cos_series,
+                one_minus_cos_closed,
+                SMALL_SERIES_THRESHOLD,
+            ),
+            (
+                "theta_minus_sin",
+                theta_minus_sin_series,
+                theta_minus_sin_closed,
+                LONG_SERIES_THRESHOLD,
+            ),
+            ("jinv", jinv_series, jinv_closed, LONG_SERIES_THRESHOLD),
         ];
-        for (name, c) in all {
-            for x in [c.threshold, c.threshold * 0.5] {
-                let s = (c.series)(x);
-                let k = (c.closed)(x);
+        for (name, series, closed, thr) in all {
+            for x in [thr, thr * 0.5] {
+                let s = series(x);
+                let k = closed(x);
                 assert!(
                     (s - k).abs() <= 5e-15 * s.abs(),
                     "{name}: series {s} vs closed {k} at θ² = {x}"

@@ -197,11 +197,18 @@ mod tests {
         let d = Vec3::new(0.2, -0.4, 0.9);
         let h = 1e-6;
         let fd = (exp_update_left(q, d, h).dot(g) - exp_update_left(q, d, -h).dot(g)) / (2.0 * h);
-        assert!((fd - lambda.dot(d)).abs() < 1e-9, "left cotangent: fd {fd} vs {}", lambda.dot(d));
+        assert!(
+            (fd - lambda.dot(d)).abs() < 1e-9,
+            "left cotangent: fd {fd} vs {}",
+            lambda.dot(d)
+        );
         // Round trip through the tangential ambient gradient.
         let back = left_cotangent_from_ambient(q, ambient_from_left_cotangent(q, lambda));
         assert!((back - lambda).norm() < 1e-15, "round trip");
-        assert!(ambient_from_left_cotangent(q, lambda).dot(q).abs() < 1e-15, "tangent to the sphere");
+        assert!(
+            ambient_from_left_cotangent(q, lambda).dot(q).abs() < 1e-15,
+            "tangent to the sphere"
+        );
     }
 
     #[test]

@@ -85,7 +85,11 @@ impl StateLayout {
     pub const fn euclidean(n: usize) -> Self {
         let mut pattern = [Block::Euclidean(0); MAX_BLOCKS];
         pattern[0] = Block::Euclidean(n);
-        Self { pattern, n_blocks: 1, count: 1 }
+        Self {
+            pattern,
+            n_blocks: 1,
+            count: 1,
+        }
     }
 
     /// `count` particles, each laid out as `pattern`.
@@ -94,10 +98,17 @@ impl StateLayout {
     /// If the pattern is empty or has more than [`MAX_BLOCKS`] blocks.
     #[must_use]
     pub fn particles(pattern: &[Block], count: usize) -> Self {
-        assert!(!pattern.is_empty() && pattern.len() <= MAX_BLOCKS, "pattern needs 1..={MAX_BLOCKS} blocks");
+        assert!(
+            !pattern.is_empty() && pattern.len() <= MAX_BLOCKS,
+            "pattern needs 1..={MAX_BLOCKS} blocks"
+        );
         let mut p = [Block::Euclidean(0); MAX_BLOCKS];
         p[..pattern.len()].copy_from_slice(pattern);
-        Self { pattern: p, n_blocks: pattern.len(), count }
+        Self {
+            pattern: p,
+            n_blocks: pattern.len(),
+            count,
+        }
     }
 
     /// The per-particle pattern.
@@ -141,7 +152,9 @@ impl StateLayout {
     /// `true` if there is no SO(3) block (ambient and tangent coordinates coincide).
     #[must_use]
     pub fn is_euclidean(&self) -> bool {
-        self.pattern().iter().all(|b| matches!(b, Block::Euclidean(_)))
+        self.pattern()
+            .iter()
+            .all(|b| matches!(b, Block::Euclidean(_)))
     }
 
     /// The blocks of one particle with their offsets.
@@ -149,7 +162,11 @@ impl StateLayout {
         let mut a = 0;
         let mut t = 0;
         self.pattern().iter().map(move |&block| {
-            let s = BlockSpan { block, ambient: a, tangent: t };
+            let s = BlockSpan {
+                block,
+                ambient: a,
+                tangent: t,
+            };
             a += block.ambient_len();
             t += block.tangent_len();
             s
@@ -162,7 +179,9 @@ impl StateLayout {
     /// If `i` is not a block index of the pattern.
     #[must_use]
     pub fn span(&self, i: usize) -> BlockSpan {
-        self.spans().nth(i).unwrap_or_else(|| panic!("block {i} out of range"))
+        self.spans()
+            .nth(i)
+            .unwrap_or_else(|| panic!("block {i} out of range"))
     }
 }
 
@@ -174,7 +193,15 @@ mod tests {
     fn offsets_follow_the_pattern() {
         let l = StateLayout::particles(&[Block::Euclidean(3), Block::So3, Block::Euclidean(2)], 5);
         let spans: alloc::vec::Vec<_> = l.spans().collect();
-        assert_eq!(spans[1], BlockSpan { block: Block::So3, ambient: 3, tangent: 3 }, "rotation block");
+        assert_eq!(
+            spans[1],
+            BlockSpan {
+                block: Block::So3,
+                ambient: 3,
+                tangent: 3
+            },
+            "rotation block"
+        );
         assert_eq!(spans[2].ambient, 7, "after the quaternion");
         assert_eq!(spans[2].tangent, 6, "after the 3 tangent entries");
         assert_eq!((l.ambient_len(), l.tangent_len()), (45, 40), "totals");

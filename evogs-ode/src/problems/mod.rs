@@ -1,0 +1,102 @@
+//! Reference problems with exact solutions (ode-lie.md §4), for order verification,
+//! tests, benches and the command line's `check-order`.
+//!
+//! Every problem is a [`VectorField`] (generic over the scalar, so it also runs in dual
+//! numbers) with an initial state, an end time and an exact solution ([`ExactProblem`]).
+//! Errors are measured with [`state_distance`]: the Euclidean norm on Euclidean blocks and
+//! the rotation angle `|Log(R_exactᵀR)|` on SO(3) blocks (sign-agnostic: `q` and `−q` are
+//! the same rotation).
+//!
+//! | problem | layout | why |
+//! |---|---|---|
+//! | [`RotatingDecay`] `x' = [[α, β], [−β, α]]x` | ℝ² | linear, closed form, exact discrete gradient |
+//! | [`Logistic`] `y' = r y(1 − y)` | ℝ | nonlinear: sees every order condition |
+//! | [`CosGrowth`] `y' = k cos(t) y` | ℝ | non-autonomous: sees the nodes `c` |
+//! | [`HarmonicOscillator`] `x'' = −ω²x` | ℝ² | energy behaviour |
+//! | [`ConstantRate`] `R' = ω̂R` | SO(3) | Lie methods must be exact |
+//! | [`ProblemK`] `R = Rz(a(t))Rx(b(t))` | SO(3) | non-commuting rates: separates orders |
+//! | [`SymmetricTop`] | SO(3) × ℝ³ | attitude and rates coupled, closed form |
+//! | [`AsymmetricTop`] | SO(3) × ℝ³ | invariants only (energy, \|L\|², spatial L) |
+//! | [`DissipativePair`] | ℝ² | stiff decay: breaks the backsolve continuous adjoint |
+//!
+//! Methods of an order p show slope p on each of them (see [`crate::order`]); a linear
+//! problem alone cannot tell a fake RK4 from a real one (ode-lie.md §2.1).
+
+mod linear;
+mod oscillator;
+mod rotation;
+mod scalar;
+mod stiff;
+mod top;
+
+pub use linear::RotatingDecay;
+pub use oscillator::HarmonicOscillator;
+pub use rotation::{ConstantRate, ProblemK};
+pub use scalar::{CosGrowth, Logistic};
+pub use stiff::DissipativePair;
+pub use top::{AsymmetricTop, RigidBody, SymmetricTop};
+
+use crate::{Block, StateLayout, VectorField};
+use evogs_math::so3::log_quat;
+use evogs_math::{Quat, Real};
+
+/// A vector field with a known initial state and exact solution.
+pub trait ExactProblem<T: Real>: VectorField<T> {
+    /// A short name for reports.
+    fn name(&self) -> &'static str;
+
+    /// Start time (0 unless stated).
+    fn t0(&self) -> T {
+        T::ZERO
+    }
+
+    /// The end time of the reference interval.
+    fn t_end(&self) -> T;
+
+    /// Writes the initial state `y(t0)` (ambient).
+    fn initial_state(&self, y0: &mut [T]);
+
+    /// Writes the exact solution `y(t)` (ambient).
+    fn exact(&self, t: T, out: &mut [T]);
+
+    /// The error of `y` against the exact state `exact`: [`state_distance`] by default.
+    fn error(&self, y: &[T], exact: &[T]) -> T {
+        state_distance(&self.layout(), y, exact)
+    }
+}
+
+/// The distance of two states: `sqrt(Σ |Δx|² + Σ angle²)` over the Euclidean entries and
+/// the SO(3) blocks, with `angle = |Log(q_bᵀ·q_a)|` (quaternions of any non-zero norm;
+/// `q` and `−q` are the same rotation).
+///
+/// ```
+/// use evogs_ode::{Block, StateLayout, problems::state_distance};
+/// let l = StateLayout::particles(&[Block::Euclidean(1), Block::So3], 1);
+/// let h = 0.1_f64;
+/// let a = [3.0, 1.0, 0.0, 0.0, 0.0];
+/// let b = [3.0, (h / 2.0).cos(), 0.0, 0.0, (h / 2.0).sin()]; // rotated by h about z
+/// assert!((state_distance(&l, &a, &b) - h).abs() < 1e-15);
+/// ```
+#[must_use]
+pub fn state_distance<T: Real>(layout: &StateLayout, a: &[T], b: &[T]) -> T {
+    let pa = layout.particle_ambient_len();
+    let mut acc = T::ZERO;
+    for p in 0..layout.count() {
+        for sp in layout.spans() {
+            let o = p * pa + sp.ambient;
+            match sp.block {
+                Block::Euclidean(m) => {
+                    for e in o..o + m {
+                        acc += (a[e] - b[e]).sq();
+                    }
+                }
+                Block::So3 => {
+                    let qa = Quat::from_slice(&a[o..]);
+                    let qb = Quat::from_slice(&b[o..]);
+                    acc += log_quat(qb.conj().mul_quat(qa)).norm_squared();
+                }
+            }
+        }
+    }
+    acc.sqrt()
+}

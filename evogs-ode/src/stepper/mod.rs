@@ -1,0 +1,428 @@
+//! The explicit Runge–Kutta core: [`Stepper`] (the formulas are in its docs).
+
+mod vjp;
+
+use crate::chunks::{for_chunks1, for_chunks2};
+use crate::{Block, BlockSpan, MAX_BLOCKS, MAX_STAGES, Method, StateLayout, Tableau, VectorField};
+use alloc::vec;
+use alloc::vec::Vec;
+use evogs_math::so3::exp_quat;
+use evogs_math::so3_coeffs::{one_minus_cos_over_sq, theta_minus_sin_over_cube};
+use evogs_math::so3_jacobians::jl_inv_mul;
+use evogs_math::{Par, Quat, Real, Vec3};
+
+/// The per-particle block pattern with its offsets (`Copy`, for the chunk kernels).
+#[derive(Clone, Copy, Debug)]
+struct Pattern {
+    spans: [BlockSpan; MAX_BLOCKS],
+    len: usize,
+    /// Ambient entries per particle.
+    pa: usize,
+    /// Tangent entries per particle.
+    pt: usize,
+}
+
+impl Pattern {
+    fn new(layout: &StateLayout) -> Self {
+        let mut spans = [BlockSpan {
+            block: Block::Euclidean(0),
+            ambient: 0,
+            tangent: 0,
+        }; MAX_BLOCKS];
+        let mut len = 0;
+        for (slot, s) in spans.iter_mut().zip(layout.spans()) {
+            *slot = s;
+            len += 1;
+        }
+        Self {
+            spans,
+            len,
+            pa: layout.particle_ambient_len(),
+            pt: layout.particle_tangent_len(),
+        }
+    }
+
+    #[inline]
+    fn spans(&self) -> &[BlockSpan] {
+        &self.spans[..self.len]
+    }
+}
+
+/// The non-zero coefficients `(j, w_j)` of a linear combination of stages.
+#[derive(Clone, Copy, Debug)]
+struct Combo<T> {
+    terms: [(usize, T); MAX_STAGES],
+    len: usize,
+}
+
+impl<T: Real> Combo<T> {
+    fn new(coeffs: impl Iterator<Item = (usize, T)>) -> Self {
+        let mut terms = [(0, T::ZERO); MAX_STAGES];
+        let mut len = 0;
+        for (j, w) in coeffs {
+            if w != T::ZERO {
+                terms[len] = (j, w);
+                len += 1;
+            }
+        }
+        Self { terms, len }
+    }
+
+    #[inline]
+    fn terms(&self) -> &[(usize, T)] {
+        &self.terms[..self.len]
+    }
+
+    /// `Σ w_j k[j·n + e]` for one entry `e`.
+    #[inline]
+    fn scalar(&self, k: &[T], n: usize, e: usize) -> T {
+        let mut acc = T::ZERO;
+        for &(j, w) in self.terms() {
+            acc += w * k[j * n + e];
+        }
+        acc
+    }
+
+    /// `Σ w_j K_j` for the 3-vector at entry `e`.
+    #[inline]
+    fn vec3(&self, k: &[T], n: usize, e: usize) -> Vec3<T> {
+        let mut acc = Vec3::zero();
+        for &(j, w) in self.terms() {
+            acc += Vec3::from_slice(&k[j * n + e..]) * w;
+        }
+        acc
+    }
+}
+
+/// `Jl(Ω)ᵀ v = v − A·Ω×v + B·Ω×(Ω×v)` with `A = (1 − cos θ)/θ²`, `B = (θ − sin θ)/θ³`.
+#[inline]
+pub(crate) fn jl_tr_mul<T: Real>(big: Vec3<T>, v: Vec3<T>) -> Vec3<T> {
+    let t2 = big.norm_squared();
+    let c = big.cross(v);
+    v - c * one_minus_cos_over_sq(t2) + big.cross(c) * theta_minus_sin_over_cube(t2)
+}
+
+/// The reverse-pass buffers (allocated on the first [`Stepper::step_vjp`]).
+#[derive(Clone, Debug, Default)]
+struct AdjointBuffers<T> {
+    /// Field outputs `Fᵢ` (s·n): `Kᵢ` before the `Jl⁻¹` of SO(3) blocks.
+    f: Vec<T>,
+    /// Stage-slope cotangents `K̄ᵢ` (s·n).
+    kbar: Vec<T>,
+    /// Cotangent handed to the field VJP (n).
+    w: Vec<T>,
+    /// Stage-state cotangent `X̄ᵢ` returned by the field VJP (n).
+    xbar: Vec<T>,
+    /// Cotangent `Ω̄ᵢ` of the stage increment (n).
+    obar: Vec<T>,
+}
+
+/// An explicit Runge–Kutta stepper (Euclidean blocks) that is simultaneously the
+/// left-trivialised RKMK method with the same tableau (SO(3) blocks).
+///
+/// Conventions: states are ambient (`StateLayout::ambient_len`, SO(3) blocks as unit
+/// quaternions w, x, y, z); derivatives and cotangents are tangent (`tangent_len`, SO(3)
+/// blocks as world-frame 3-vectors, cotangents with respect to the left perturbation
+/// `R ↦ Exp(δ)·R`).
+///
+/// For a step from `(tₙ, yₙ)` with step `h` (negative backward in time), stage `i` is
+///
+/// ```text
+/// Euclidean block:  Ωᵢ = h Σ_{j<i} a_ij Kⱼ,   Xᵢ = yₙ + Ωᵢ,         Kᵢ = f(tₙ + cᵢh, Xᵢ)
+/// SO(3) block:      Ωᵢ = h Σ_{j<i} a_ij Kⱼ,   Rᵢ = Exp(Ωᵢ)·Rₙ,      ωᵢ = f(tₙ + cᵢh, Xᵢ)
+///                                                                  Kᵢ = Jl⁻¹(Ωᵢ)·ωᵢ
+/// update:           y_{n+1} = yₙ + h Σ bᵢKᵢ;   R_{n+1} = Exp(h Σ bᵢKᵢ)·Rₙ, then |q| ← 1
+/// ```
+///
+/// The SO(3) rule is the left-trivialised Runge–Kutta–Munthe-Kaas method: writing
+/// `R(t) = Exp(Ω(t))·Rₙ` for a world-frame rate (`R' = ω̂R`) gives the vector-space ODE
+/// `Ω' = dexp⁻¹_Ω(ω) = Jl⁻¹(Ω)·ω`, to which the tableau is applied for one step. On SO(3)
+/// `Jl⁻¹` has the closed form `I − ½Ω̂ + D(θ)Ω̂²` (ode-lie.md §2.5), so no commutator
+/// series is truncated and the method keeps the tableau's order (HLW Thm IV.8.5). With the
+/// Euler tableau it is Lie–Euler `R ← Exp(hω)R`; with classical RK4 it is RKMK4. Both are
+/// exact (to rounding) for a constant rate.
+///
+/// The stepper owns every stage buffer: forward steps allocate nothing. The buffers of
+/// the reverse pass ([`Stepper::step_vjp`]) are allocated on its first call and reused.
+///
+/// ```
+/// use evogs_ode::{Method, Stepper, TimeGrid, VectorField, integrate, fields::LinearField};
+/// // y' = −y from y(0) = 1 to t = 1 with 8 RK4 steps.
+/// let mut field = LinearField::new(1, vec![-1.0]);
+/// let mut stepper = Stepper::new(Method::Rk4, field.layout());
+/// let mut y = [1.0];
+/// integrate(&mut field, &mut stepper, &TimeGrid::uniform(0.0, 1.0, 8), &mut y);
+/// assert!((y[0] - (-1.0_f64).exp()).abs() < 1e-6);
+/// ```
+#[derive(Clone, Debug)]
+pub struct Stepper<T> {
+    tableau: Tableau,
+    s: usize,
+    a: [[T; MAX_STAGES]; MAX_STAGES],
+    c: [T; MAX_STAGES],
+    b: [T; MAX_STAGES],
+    layout: StateLayout,
+    pat: Pattern,
+    count: usize,
+    /// Tangent length.
+    n: usize,
+    euclidean: bool,
+    par: Par,
+    /// Stage slopes `Kᵢ` (s·n).
+    k: Vec<T>,
+    /// Stage state `Xᵢ` (ambient).
+    x: Vec<T>,
+    /// Stage increments `Ωᵢ` of the current stage (n; SO(3) entries).
+    omega: Vec<T>,
+    adj: AdjointBuffers<T>,
+}
+
+impl<T: Real> Stepper<T> {
+    /// A stepper for a built-in method on states with this layout.
+    #[must_use]
+    pub fn new(method: Method, layout: StateLayout) -> Self {
+        Self::with_tableau(method.tableau(), layout)
+    }
+
+    /// A stepper driven by any explicit tableau (e.g. for order-verification studies).
+    #[must_use]
+    pub fn with_tableau(tableau: Tableau, layout: StateLayout) -> Self {
+        let s = tableau.stages();
+        let mut a = [[T::ZERO; MAX_STAGES]; MAX_STAGES];
+        let mut c = [T::ZERO; MAX_STAGES];
+        let mut b = [T::ZERO; MAX_STAGES];
+        for i in 0..s {
+            c[i] = T::from_f64(tableau.c(i).to_f64());
+            b[i] = T::from_f64(tableau.b(i).to_f64());
+            for j in 0..i {
+                a[i][j] = T::from_f64(tableau.a(i, j).to_f64());
+            }
+        }
+        let n = layout.tangent_len();
+        Self {
+            tableau,
+            s,
+            a,
+            c,
+            b,
+            layout,
+            pat: Pattern::new(&layout),
+            count: layout.count(),
+            n,
+            euclidean: layout.is_euclidean(),
+            par: Par::Seq,
+            k: vec![T::ZERO; s * n],
+            x: vec![T::ZERO; layout.ambient_len()],
+            omega: vec![T::ZERO; n],
+            adj: AdjointBuffers::default(),
+        }
+    }
+
+    /// Sets how the per-particle block updates may use threads (results are bitwise
+    /// identical either way; the field's own evaluation is not affected).
+    #[must_use]
+    pub const fn with_par(mut self, par: Par) -> Self {
+        self.par = par;
+        self
+    }
+
+    /// Changes the parallelism setting in place.
+    pub const fn set_par(&mut self, par: Par) {
+        self.par = par;
+    }
+
+    /// The parallelism setting.
+    #[must_use]
+    pub const fn par(&self) -> Par {
+        self.par
+    }
+
+    /// The tableau.
+    #[must_use]
+    pub const fn tableau(&self) -> &Tableau {
+        &self.tableau
+    }
+
+    /// The state layout.
+    #[must_use]
+    pub const fn layout(&self) -> &StateLayout {
+        &self.layout
+    }
+
+    /// One step from `(t, y)` with step `h`, in place (`y` ambient).
+    ///
+    /// # Panics
+    /// If `y` or the field do not match the stepper's layout.
+    pub fn step<F: VectorField<T> + ?Sized>(&mut self, field: &mut F, t: T, h: T, y: &mut [T]) {
+        self.check(field, y);
+        let n = self.n;
+        for i in 0..self.s {
+            let ti = t + self.c[i] * h;
+            if i == 0 {
+                field.eval(ti, y, &mut self.k[..n]);
+            } else {
+                self.stage_state(i, h, y);
+                field.eval(ti, &self.x, &mut self.k[i * n..(i + 1) * n]);
+                self.dexp_inv(i);
+            }
+        }
+        self.update(h, y);
+    }
+
+    fn check<F: VectorField<T> + ?Sized>(&self, field: &F, y: &[T]) {
+        assert_eq!(
+            y.len(),
+            self.x.len(),
+            "state length differs from the layout"
+        );
+        assert_eq!(
+            field.dim(),
+            self.n,
+            "field dimension differs from the layout"
+        );
+        debug_assert!(
+            field.layout() == self.layout,
+            "the field's layout differs from the stepper's"
+        );
+    }
+
+    /// Writes `Xᵢ` into `x` and `Ωᵢ` (SO(3) entries) into `omega`, from `yₙ` and `K_{j<i}`.
+    fn stage_state(&mut self, i: usize, h: T, y: &[T]) {
+        let combo = Combo::new((0..i).map(|j| (j, self.a[i][j])));
+        let Self {
+            pat,
+            n,
+            par,
+            count,
+            euclidean,
+            k,
+            x,
+            omega,
+            ..
+        } = self;
+        let (pat, n, k) = (*pat, *n, &*k);
+        if *euclidean {
+            // Ambient and tangent coordinates coincide: one flat loop per chunk.
+            for_chunks1(*par, *count, x, pat.pa, |p0, np, xc| {
+                let lo = p0 * pat.pa;
+                for (e, (xe, ye)) in xc.iter_mut().zip(&y[lo..lo + np * pat.pa]).enumerate() {
+                    *xe = *ye + h * combo.scalar(k, n, lo + e);
+                }
+            });
+            return;
+        }
+        for_chunks2(*par, *count, x, pat.pa, omega, pat.pt, |p0, np, xc, oc| {
+            for p in 0..np {
+                let ya = &y[(p0 + p) * pat.pa..];
+                let xa = &mut xc[p * pat.pa..(p + 1) * pat.pa];
+                let oa = &mut oc[p * pat.pt..(p + 1) * pat.pt];
+                let gt = (p0 + p) * pat.pt;
+                for sp in pat.spans() {
+                    match sp.block {
+                        Block::Euclidean(m) => {
+                            for e in 0..m {
+                                let inc = combo.scalar(k, n, gt + sp.tangent + e);
+                                xa[sp.ambient + e] = ya[sp.ambient + e] + h * inc;
+                            }
+                        }
+                        Block::So3 => {
+                            let big = combo.vec3(k, n, gt + sp.tangent) * h;
+                            big.write_to(&mut oa[sp.tangent..]);
+                            let q = Quat::from_slice(&ya[sp.ambient..]);
+                            exp_quat(big).mul_quat(q).write_to(&mut xa[sp.ambient..]);
+                        }
+                    }
+                }
+            }
+        });
+    }
+
+    /// `Kᵢ ← Jl⁻¹(Ωᵢ)·Kᵢ` on SO(3) entries (stage `i > 0`; `Ω₀ = 0` is the identity).
+    fn dexp_inv(&mut self, i: usize) {
+        if self.euclidean {
+            return;
+        }
+        let Self {
+            pat,
+            n,
+            par,
+            count,
+            k,
+            omega,
+            ..
+        } = self;
+        let (pat, omega) = (*pat, &*omega);
+        let ki = &mut k[i * *n..(i + 1) * *n];
+        for_chunks1(*par, *count, ki, pat.pt, |p0, np, kc| {
+            for p in 0..np {
+                let gt = (p0 + p) * pat.pt;
+                for sp in pat.spans() {
+                    if sp.block == Block::So3 {
+                        let e = p * pat.pt + sp.tangent;
+                        let big = Vec3::from_slice(&omega[gt + sp.tangent..]);
+                        jl_inv_mul(big, Vec3::from_slice(&kc[e..])).write_to(&mut kc[e..]);
+                    }
+                }
+            }
+        });
+    }
+
+    /// `y ← yₙ + h Σ bᵢKᵢ` (Euclidean), `R ← Exp(h Σ bᵢKᵢ)·R` then `|q| ← 1` (SO(3)).
+    fn update(&mut self, h: T, y: &mut [T]) {
+        let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
+        let (pat, n, k) = (self.pat, self.n, &self.k);
+        if self.euclidean {
+            for_chunks1(self.par, self.count, y, pat.pa, |p0, _, yc| {
+                let lo = p0 * pat.pa;
+                for (e, ye) in yc.iter_mut().enumerate() {
+                    *ye += h * combo.scalar(k, n, lo + e);
+                }
+            });
+            return;
+        }
+        for_chunks1(self.par, self.count, y, pat.pa, |p0, np, yc| {
+            for p in 0..np {
+                let ya = &mut yc[p * pat.pa..(p + 1) * pat.pa];
+                let gt = (p0 + p) * pat.pt;
+                for sp in pat.spans() {
+                    match sp.block {
+                        Block::Euclidean(m) => {
+                            for e in 0..m {
+                                ya[sp.ambient + e] += h * combo.scalar(k, n, gt + sp.tangent + e);
+                            }
+                        }
+                        Block::So3 => {
+                            let big = combo.vec3(k, n, gt + sp.tangent) * h;
+                            let q = Quat::from_slice(&ya[sp.ambient..]);
+                            exp_quat(big)
+                                .mul_quat(q)
+                                .normalize()
+                                .write_to(&mut ya[sp.ambient..]);
+                        }
+                    }
+                }
+            }
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::jl_tr_mul;
+    use evogs_math::Vec3;
+    use evogs_math::so3_jacobians::left_jacobian;
+
+    #[test]
+    fn jl_transpose_product_matches_the_matrix() {
+        let v = Vec3::new(0.3, -1.2, 0.8);
+        for big in [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1e-9, 2e-9, -1e-9),
+            Vec3::new(0.01, -0.02, 0.03),
+            Vec3::new(0.7, -1.9, 1.1),
+        ] {
+            let want = left_jacobian(big).tr_mul_vec(v);
+            assert!((jl_tr_mul(big, v) - want).norm() < 1e-15, "Jlᵀv at {big:?}");
+        }
+    }
+}

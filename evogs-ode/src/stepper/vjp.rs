@@ -1,0 +1,293 @@
+//! The exact VJP of one step: [`Stepper::step_vjp`] (formulas in its docs).
+
+use super::{Combo, Stepper, jl_tr_mul};
+use crate::chunks::for_chunks2;
+use crate::{Block, VectorField};
+use alloc::vec;
+use evogs_math::so3::exp_quat;
+use evogs_math::so3_jacobians::jl_inv_mul_vjp;
+use evogs_math::{Real, Vec3};
+
+impl<T: Real> Stepper<T> {
+    /// The exact VJP of one [`step`](Self::step) from `(t, y_n)` with step `h`.
+    ///
+    /// - `lambda` (tangent): on entry the cotangent at `y_{n+1}`, on exit the cotangent at
+    ///   `y_n` (overwritten in place);
+    /// - `d_params`: the field-parameter gradient of this step is **added**.
+    ///
+    /// The stages are recomputed from `y_n` (s field evaluations and s field VJPs). The
+    /// first call allocates the reverse-pass buffers; later calls allocate nothing.
+    ///
+    /// The transpose of the linearised step, processing the stages in reverse (ode-lie.md
+    /// §2.2 and §2.9). With λ the cotangent at `y_{n+1}` (tangent coordinates):
+    ///
+    /// ```text
+    /// update      Euclidean:  Ω̄ = λ                        (λₙ starts as λ)
+    ///             SO(3):      Ω̄ = Jl(Ω)ᵀλ,  λₙ starts as Exp(Ω)ᵀλ      (Ω = h Σ bᵢKᵢ)
+    ///             K̄ᵢ = h bᵢ Ω̄ for every stage
+    /// stage i = s..1:
+    ///   field     Euclidean:  ω̄ᵢ = K̄ᵢ
+    ///             SO(3):      (Ω̄ᵢ, ω̄ᵢ) = VJP of Jl⁻¹(Ωᵢ)·ωᵢ at K̄ᵢ
+    ///             X̄ᵢ = (∂f/∂X)ᵀ ω̄ᵢ  and  θ̄ += (∂f/∂θ)ᵀ ω̄ᵢ   (one field VJP at (tₙ + cᵢh, Xᵢ))
+    ///   state     Euclidean:  λₙ += X̄ᵢ,            Ω̄ᵢ = X̄ᵢ
+    ///             SO(3):      λₙ += Exp(Ωᵢ)ᵀX̄ᵢ,    Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ
+    ///   coupling  K̄ⱼ += h a_ij Ω̄ᵢ  for j < i
+    /// ```
+    ///
+    /// The SO(3) rules come from linearising `R' = Exp(Ω)·R` with left perturbations:
+    /// `Exp(Ω + dΩ)·Exp(δ)·R = Exp(Jl(Ω)dΩ + Exp(Ω)δ)·Exp(Ω)·R + O(2)`, using
+    /// `Exp(Ω + dΩ) ≈ Exp(Jl(Ω)dΩ)·Exp(Ω)` and `Exp(Ω)·Exp(δ)·Exp(Ω)ᵀ = Exp(Exp(Ω)δ)`.
+    ///
+    /// The stage values are recomputed from the stored `yₙ` with the same code as the
+    /// forward step (bitwise the same stages), so only states need to be stored.
+    ///
+    /// # Panics
+    /// If `y_n`, `lambda` or `d_params` do not match the layout and the field.
+    ///
+    /// ```
+    /// use evogs_math::diff::{GradCheck, central_gradient};
+    /// use evogs_ode::{Method, Stepper, VectorField, problems::Logistic};
+    /// // One RK4 step of y' = r y (1 − y): gradient of y₁ with respect to (y₀, r).
+    /// let (t, h, y0, r) = (0.2, 0.5, 0.3, 1.4);
+    /// let mut f = Logistic { rate: r, ..Default::default() };
+    /// let mut st = Stepper::new(Method::Rk4, f.layout());
+    /// let (mut lambda, mut d_r) = ([1.0], [0.0]);
+    /// st.step_vjp(&mut f, t, h, &[y0], &mut lambda, &mut d_r);
+    /// let mut x = [y0, r];
+    /// let mut num = [0.0; 2];
+    /// central_gradient(
+    ///     |v: &[f64]| {
+    ///         let mut g = Logistic { rate: v[1], ..Default::default() };
+    ///         let mut y = [v[0]];
+    ///         Stepper::new(Method::Rk4, g.layout()).step(&mut g, t, h, &mut y);
+    ///         y[0]
+    ///     },
+    ///     &mut x,
+    ///     &mut num,
+    /// );
+    /// GradCheck::new(1e-10, 1e-8).check(&[lambda[0], d_r[0]], &num).assert_passed("step_vjp");
+    /// ```
+    pub fn step_vjp<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y_n: &[T],
+        lambda: &mut [T],
+        d_params: &mut [T],
+    ) {
+        self.check(field, y_n);
+        assert_eq!(
+            lambda.len(),
+            self.n,
+            "cotangent length differs from the layout"
+        );
+        assert_eq!(
+            d_params.len(),
+            field.n_params(),
+            "parameter-gradient length differs from the field"
+        );
+        self.ensure_adjoint_buffers();
+        self.recompute_stages(field, t, h, y_n);
+        self.update_vjp(h, lambda);
+        let n = self.n;
+        for i in (0..self.s).rev() {
+            let ti = t + self.c[i] * h;
+            self.adj.xbar.fill(T::ZERO);
+            if i == 0 {
+                // Ω₀ = 0: K₀ = ω₀ and X₀ = yₙ, so every Jacobian of the stage is the identity.
+                let kbar0 = &self.adj.kbar[..n];
+                field.vjp(ti, y_n, kbar0, &mut self.adj.xbar, d_params);
+                for (l, xb) in lambda.iter_mut().zip(&self.adj.xbar) {
+                    *l += *xb;
+                }
+                continue;
+            }
+            self.stage_state(i, h, y_n);
+            if self.euclidean {
+                let kbar_i = &self.adj.kbar[i * n..(i + 1) * n];
+                field.vjp(ti, &self.x, kbar_i, &mut self.adj.xbar, d_params);
+                for (l, xb) in lambda.iter_mut().zip(&self.adj.xbar) {
+                    *l += *xb;
+                }
+                self.couple(i, h, true);
+            } else {
+                self.stage_field_cotangent(i);
+                field.vjp(ti, &self.x, &self.adj.w, &mut self.adj.xbar, d_params);
+                self.stage_state_vjp(lambda);
+                self.couple(i, h, false);
+            }
+        }
+    }
+
+    fn ensure_adjoint_buffers(&mut self) {
+        let (s, n) = (self.s, self.n);
+        if self.adj.kbar.len() != s * n {
+            self.adj.f = vec![T::ZERO; s * n];
+            self.adj.kbar = vec![T::ZERO; s * n];
+            self.adj.w = vec![T::ZERO; n];
+            self.adj.xbar = vec![T::ZERO; n];
+            self.adj.obar = vec![T::ZERO; n];
+        }
+    }
+
+    /// The forward stages again, keeping the field outputs `Fᵢ` next to `Kᵢ`.
+    fn recompute_stages<F: VectorField<T> + ?Sized>(&mut self, field: &mut F, t: T, h: T, y: &[T]) {
+        let n = self.n;
+        for i in 0..self.s {
+            let ti = t + self.c[i] * h;
+            if i == 0 {
+                field.eval(ti, y, &mut self.adj.f[..n]);
+            } else {
+                self.stage_state(i, h, y);
+                field.eval(ti, &self.x, &mut self.adj.f[i * n..(i + 1) * n]);
+            }
+            self.k[i * n..(i + 1) * n].copy_from_slice(&self.adj.f[i * n..(i + 1) * n]);
+            if i > 0 {
+                self.dexp_inv(i);
+            }
+        }
+    }
+
+    /// Transposes the update: `λ ← Exp(Ω)ᵀλ` and `Ω̄ = Jl(Ω)ᵀλ` on SO(3) blocks, `Ω̄ = λ`
+    /// on Euclidean ones; then `K̄ᵢ = h bᵢ Ω̄`.
+    fn update_vjp(&mut self, h: T, lambda: &mut [T]) {
+        let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
+        let (pat, n, k) = (self.pat, self.n, &self.k);
+        for_chunks2(
+            self.par,
+            self.count,
+            lambda,
+            pat.pt,
+            &mut self.adj.obar,
+            pat.pt,
+            |p0, np, lc, oc| {
+                for p in 0..np {
+                    let gt = (p0 + p) * pat.pt;
+                    let lt = p * pat.pt;
+                    for sp in pat.spans() {
+                        let e = lt + sp.tangent;
+                        match sp.block {
+                            Block::Euclidean(m) => {
+                                oc[e..e + m].copy_from_slice(&lc[e..e + m]);
+                            }
+                            Block::So3 => {
+                                let big = combo.vec3(k, n, gt + sp.tangent) * h;
+                                let l = Vec3::from_slice(&lc[e..]);
+                                jl_tr_mul(big, l).write_to(&mut oc[e..]);
+                                exp_quat(big).rotate_inv(l).write_to(&mut lc[e..]);
+                            }
+                        }
+                    }
+                }
+            },
+        );
+        for i in 0..self.s {
+            let hb = h * self.b[i];
+            for (kb, ob) in self.adj.kbar[i * n..(i + 1) * n]
+                .iter_mut()
+                .zip(&self.adj.obar)
+            {
+                *kb = hb * *ob;
+            }
+        }
+    }
+
+    /// The cotangent of the field output at stage `i`: `K̄ᵢ` on Euclidean entries, and on
+    /// SO(3) entries `ω̄ᵢ` with `Ω̄ᵢ` (into `obar`) from the VJP of `Jl⁻¹(Ωᵢ)·ωᵢ`.
+    fn stage_field_cotangent(&mut self, i: usize) {
+        let (pat, n) = (self.pat, self.n);
+        let (omega, f, kbar) = (&self.omega, &self.adj.f, &self.adj.kbar);
+        for_chunks2(
+            self.par,
+            self.count,
+            &mut self.adj.w,
+            pat.pt,
+            &mut self.adj.obar,
+            pat.pt,
+            |p0, np, wc, oc| {
+                for p in 0..np {
+                    let gt = (p0 + p) * pat.pt;
+                    let lt = p * pat.pt;
+                    for sp in pat.spans() {
+                        let (e, ge) = (lt + sp.tangent, gt + sp.tangent);
+                        match sp.block {
+                            Block::Euclidean(m) => {
+                                wc[e..e + m].copy_from_slice(&kbar[i * n + ge..i * n + ge + m]);
+                            }
+                            Block::So3 => {
+                                let (d_big, d_omega) = jl_inv_mul_vjp(
+                                    Vec3::from_slice(&omega[ge..]),
+                                    Vec3::from_slice(&f[i * n + ge..]),
+                                    Vec3::from_slice(&kbar[i * n + ge..]),
+                                );
+                                d_omega.write_to(&mut wc[e..]);
+                                d_big.write_to(&mut oc[e..]);
+                            }
+                        }
+                    }
+                }
+            },
+        );
+    }
+
+    /// Transposes `Xᵢ = yₙ ⊕ Ωᵢ`: `λ += X̄ᵢ`, `Ω̄ᵢ = X̄ᵢ` (Euclidean);
+    /// `λ += Exp(Ωᵢ)ᵀX̄ᵢ`, `Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ` (SO(3)).
+    fn stage_state_vjp(&mut self, lambda: &mut [T]) {
+        let pat = self.pat;
+        let (omega, xbar) = (&self.omega, &self.adj.xbar);
+        for_chunks2(
+            self.par,
+            self.count,
+            lambda,
+            pat.pt,
+            &mut self.adj.obar,
+            pat.pt,
+            |p0, np, lc, oc| {
+                for p in 0..np {
+                    let gt = (p0 + p) * pat.pt;
+                    let lt = p * pat.pt;
+                    for sp in pat.spans() {
+                        let (e, ge) = (lt + sp.tangent, gt + sp.tangent);
+                        match sp.block {
+                            Block::Euclidean(m) => {
+                                for (l, xb) in lc[e..e + m].iter_mut().zip(&xbar[ge..ge + m]) {
+                                    *l += *xb;
+                                }
+                                oc[e..e + m].copy_from_slice(&xbar[ge..ge + m]);
+                            }
+                            Block::So3 => {
+                                let big = Vec3::from_slice(&omega[ge..]);
+                                let xb = Vec3::from_slice(&xbar[ge..]);
+                                let l = Vec3::from_slice(&lc[e..]) + exp_quat(big).rotate_inv(xb);
+                                l.write_to(&mut lc[e..]);
+                                let o = Vec3::from_slice(&oc[e..]) + jl_tr_mul(big, xb);
+                                o.write_to(&mut oc[e..]);
+                            }
+                        }
+                    }
+                }
+            },
+        );
+    }
+
+    /// `K̄ⱼ += h a_ij Ω̄ᵢ` for `j < i` (`Ω̄ᵢ = X̄ᵢ` when the layout is Euclidean).
+    fn couple(&mut self, i: usize, h: T, euclidean: bool) {
+        let n = self.n;
+        let src = if euclidean {
+            &self.adj.xbar
+        } else {
+            &self.adj.obar
+        };
+        for j in 0..i {
+            let a = self.a[i][j];
+            if a == T::ZERO {
+                continue;
+            }
+            let ha = h * a;
+            for (kb, o) in self.adj.kbar[j * n..(j + 1) * n].iter_mut().zip(src) {
+                *kb += ha * *o;
+            }
+        }
+    }
+}
