@@ -11,11 +11,24 @@ use std::hint::black_box;
 
 fn field() -> NeuralField<f32> {
     let cfg = NeuralFieldConfig {
-        hexplane: HexPlaneConfig { channels: 32, resolution: [64, 64, 64, 25], multires: vec![1, 2] },
+        hexplane: HexPlaneConfig {
+            channels: 32,
+            resolution: [64, 64, 64, 25],
+            multires: vec![1, 2],
+        },
         width: 64,
         output_scales: [10.0, 1.0, 1.0],
     };
-    NeuralField::new(&cfg, [-0.5; 3], [0.5; 3], TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 }, 1)
+    NeuralField::new(
+        &cfg,
+        [-0.5; 3],
+        [0.5; 3],
+        TimeMapping::Normalized {
+            t_min: 0.0,
+            t_max: 1.0,
+        },
+        1,
+    )
 }
 
 fn bench(c: &mut Criterion) {
@@ -26,7 +39,11 @@ fn bench(c: &mut Criterion) {
         let mut y = Vec::with_capacity(n * 10);
         for _ in 0..n {
             #[allow(clippy::cast_possible_truncation, reason = "bench inputs")]
-            y.extend([rng.uniform(-0.5, 0.5) as f32, rng.uniform(-0.5, 0.5) as f32, rng.uniform(-0.5, 0.5) as f32]);
+            y.extend([
+                rng.uniform(-0.5, 0.5) as f32,
+                rng.uniform(-0.5, 0.5) as f32,
+                rng.uniform(-0.5, 0.5) as f32,
+            ]);
             y.extend([1.0, 0.0, 0.0, 0.0, -4.0, -4.0, -4.0]);
         }
         #[allow(clippy::cast_possible_truncation, reason = "bench inputs")]
@@ -36,10 +53,14 @@ fn bench(c: &mut Criterion) {
             f.set_count(n);
             f.set_par(par);
             let mut out = vec![0.0; n * 9];
-            g.bench_function(format!("eval/{n}/{name}"), |b| b.iter(|| f.eval(black_box(0.3), &y, &mut out)));
+            g.bench_function(format!("eval/{n}/{name}"), |b| {
+                b.iter(|| f.eval(black_box(0.3), &y, &mut out));
+            });
             let mut d_y = vec![0.0; n * 9];
             let mut d_p = vec![0.0; f.n_params()];
-            g.bench_function(format!("vjp/{n}/{name}"), |b| b.iter(|| f.vjp(black_box(0.3), &y, &w, &mut d_y, &mut d_p)));
+            g.bench_function(format!("vjp/{n}/{name}"), |b| {
+                b.iter(|| f.vjp(black_box(0.3), &y, &w, &mut d_y, &mut d_p));
+            });
         }
     }
     g.finish();

@@ -10,7 +10,11 @@ use evogs_ode::VectorField;
 
 fn small_field(time: TimeMapping) -> NeuralField<f64> {
     let cfg = NeuralFieldConfig {
-        hexplane: HexPlaneConfig { channels: 3, resolution: [4, 3, 5, 4], multires: vec![1, 2] },
+        hexplane: HexPlaneConfig {
+            channels: 3,
+            resolution: [4, 3, 5, 4],
+            multires: vec![1, 2],
+        },
         width: 8,
         output_scales: [10.0, 1.0, 1.0],
     };
@@ -28,7 +32,11 @@ fn states(n: usize, seed: u64) -> Vec<f64> {
     let mut rng = SplitMix64::new(seed);
     let mut y = Vec::with_capacity(n * 10);
     for _ in 0..n {
-        y.extend([rng.uniform(-0.9, 0.9), rng.uniform(-1.4, 0.9), rng.uniform(-0.4, 1.4)]);
+        y.extend([
+            rng.uniform(-0.9, 0.9),
+            rng.uniform(-1.4, 0.9),
+            rng.uniform(-0.4, 1.4),
+        ]);
         y.extend([1.0, 0.0, 0.0, 0.0]);
         y.extend([-3.0, -3.0, -3.0]);
     }
@@ -37,7 +45,13 @@ fn states(n: usize, seed: u64) -> Vec<f64> {
 
 #[test]
 fn vjp_matches_central_differences_for_positions_and_parameters() {
-    for time in [TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 }, TimeMapping::Raw] {
+    for time in [
+        TimeMapping::Normalized {
+            t_min: 0.0,
+            t_max: 1.0,
+        },
+        TimeMapping::Raw,
+    ] {
         let mut f = small_field(time);
         let n = 5;
         f.set_count(n);
@@ -60,12 +74,26 @@ fn vjp_matches_central_differences_for_positions_and_parameters() {
             &mut yy,
             &mut num,
         );
-        let analytic: Vec<f64> = (0..n).flat_map(|i| d_y[i * 9..i * 9 + 3].to_vec()).collect();
-        let numeric: Vec<f64> = (0..n).flat_map(|i| num[i * 10..i * 10 + 3].to_vec()).collect();
-        GradCheck::new(1e-8, 1e-6).check(&analytic, &numeric).assert_passed("d position");
+        let analytic: Vec<f64> = (0..n)
+            .flat_map(|i| d_y[i * 9..i * 9 + 3].to_vec())
+            .collect();
+        let numeric: Vec<f64> = (0..n)
+            .flat_map(|i| num[i * 10..i * 10 + 3].to_vec())
+            .collect();
+        GradCheck::new(1e-8, 1e-6)
+            .check(&analytic, &numeric)
+            .assert_passed("d position");
         for i in 0..n {
-            assert!(d_y[i * 9 + 3..i * 9 + 9].iter().all(|&v| v == 0.0), "no rotation or scale dependence");
-            assert!(num[i * 10 + 3..i * 10 + 10].iter().all(|&v| v.abs() < 1e-12), "numerically too");
+            assert!(
+                d_y[i * 9 + 3..i * 9 + 9].iter().all(|&v| v == 0.0),
+                "no rotation or scale dependence"
+            );
+            assert!(
+                num[i * 10 + 3..i * 10 + 10]
+                    .iter()
+                    .all(|&v| v.abs() < 1e-12),
+                "numerically too"
+            );
         }
         // Every parameter (the field is small enough).
         let p0 = f.params().to_vec();
@@ -83,20 +111,28 @@ fn vjp_matches_central_differences_for_positions_and_parameters() {
         f.params_mut().copy_from_slice(&p0);
         let rep = GradCheck::new(1e-8, 1e-6).check(&d_p, &num);
         rep.assert_passed("d parameters");
-        println!("neural field {time:?}: positions and {} parameters, {rep}", p0.len());
+        println!(
+            "neural field {time:?}: positions and {} parameters, {rep}",
+            p0.len()
+        );
     }
 }
 
 #[test]
 fn vjp_passes_the_dot_product_test() {
-    let mut f = small_field(TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 });
+    let mut f = small_field(TimeMapping::Normalized {
+        t_min: 0.0,
+        t_max: 1.0,
+    });
     let n = 7;
     f.set_count(n);
     let y = states(n, 9);
     let np = f.n_params();
     let p0 = f.params().to_vec();
     // Inputs: all positions (3n) and all parameters; outputs: 9n.
-    let pos: Vec<f64> = (0..n).flat_map(|i| y[i * 10..i * 10 + 3].to_vec()).collect();
+    let pos: Vec<f64> = (0..n)
+        .flat_map(|i| y[i * 10..i * 10 + 3].to_vec())
+        .collect();
     let mut x0 = pos.clone();
     x0.extend(&p0);
     let eval = |f: &mut NeuralField<f64>, x: &[f64], out: &mut [f64]| {
@@ -108,9 +144,14 @@ fn vjp_passes_the_dot_product_test() {
         f.eval(0.6, &yy, out);
     };
     let r = vjp_dot_test(
-        |v: &[f64], out: &mut [f64]| central_jvp(|x: &[f64], o: &mut [f64]| eval(&mut f, x, o), &x0, v, out),
+        |v: &[f64], out: &mut [f64]| {
+            central_jvp(|x: &[f64], o: &mut [f64]| eval(&mut f, x, o), &x0, v, out);
+        },
         |w: &[f64], out: &mut [f64]| {
-            let mut g = small_field(TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 });
+            let mut g = small_field(TimeMapping::Normalized {
+                t_min: 0.0,
+                t_max: 1.0,
+            });
             g.params_mut().copy_from_slice(&p0);
             g.set_count(n);
             let mut d_y = vec![0.0; 9 * n];
@@ -131,7 +172,10 @@ fn vjp_passes_the_dot_product_test() {
 #[cfg(feature = "rayon")]
 #[test]
 fn parallel_evaluation_is_bitwise_sequential() {
-    let mut f = small_field(TimeMapping::Normalized { t_min: 0.0, t_max: 1.0 });
+    let mut f = small_field(TimeMapping::Normalized {
+        t_min: 0.0,
+        t_max: 1.0,
+    });
     let n = 1000; // several chunks
     f.set_count(n);
     let y = states(n, 13);

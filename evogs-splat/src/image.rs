@@ -28,7 +28,11 @@ impl<T: Real> Image<T> {
     /// A black image.
     #[must_use]
     pub fn new(width: usize, height: usize) -> Self {
-        Self { width, height, data: vec![T::ZERO; width * height * 3] }
+        Self {
+            width,
+            height,
+            data: vec![T::ZERO; width * height * 3],
+        }
     }
 
     /// An image filled with one colour.
@@ -44,7 +48,11 @@ impl<T: Real> Image<T> {
     /// An image from interleaved RGB data; `None` if the length is not `3·width·height`.
     #[must_use]
     pub fn from_vec(width: usize, height: usize, data: Vec<T>) -> Option<Self> {
-        (data.len() == width * height * 3).then_some(Self { width, height, data })
+        (data.len() == width * height * 3).then_some(Self {
+            width,
+            height,
+            data,
+        })
     }
 
     /// Width in pixels.
@@ -87,7 +95,12 @@ impl<T: Real> Image<T> {
     #[inline]
     #[must_use]
     pub fn get(&self, x: usize, y: usize) -> [T; 3] {
-        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside {}x{}", self.width, self.height);
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside {}x{}",
+            self.width,
+            self.height
+        );
         let i = 3 * (y * self.width + x);
         [self.data[i], self.data[i + 1], self.data[i + 2]]
     }
@@ -98,7 +111,12 @@ impl<T: Real> Image<T> {
     /// If the pixel is outside the image.
     #[inline]
     pub fn set(&mut self, x: usize, y: usize, rgb: [T; 3]) {
-        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside {}x{}", self.width, self.height);
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside {}x{}",
+            self.width,
+            self.height
+        );
         let i = 3 * (y * self.width + x);
         self.data[i..i + 3].copy_from_slice(&rgb);
     }
@@ -106,7 +124,11 @@ impl<T: Real> Image<T> {
     /// Converts the scalar type (through `f64`).
     #[must_use]
     pub fn cast<U: Real>(&self) -> Image<U> {
-        Image { width: self.width, height: self.height, data: self.data.iter().map(|v| U::from_f64(v.to_f64())).collect() }
+        Image {
+            width: self.width,
+            height: self.height,
+            data: self.data.iter().map(|v| U::from_f64(v.to_f64())).collect(),
+        }
     }
 
     /// `true` if the two images have the same size.

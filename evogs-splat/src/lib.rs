@@ -4,13 +4,36 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 
 #[cfg(not(any(feature = "std", feature = "libm")))]
-compile_error!("evogs-splat needs a float backend: enable the `std` (default) or the `libm` feature");
+compile_error!(
+    "evogs-splat needs a float backend: enable the `std` (default) or the `libm` feature"
+);
 
 extern crate alloc;
 
+pub mod camera;
+pub mod color;
+pub mod gaussians;
 mod image;
 pub mod loss;
 pub mod metrics;
+pub mod preprocess;
+pub mod project;
+pub mod project_vjp;
+pub mod raster_ref;
+pub mod raster_ref_vjp;
+pub mod render;
 pub mod ssim;
 
+pub use camera::{CameraError, CameraGrad, PinholeCamera};
+pub use color::{sh_color, sh_color_vjp};
+pub use gaussians::{Splats, SplatsGrad, benchmark_scene};
 pub use image::Image;
+pub use preprocess::{
+    Preprocessed, RasterInputGrad, RasterMode, RenderOptions, preprocess, preprocess_into,
+    preprocess_vjp,
+};
+pub use project::{ProjectOptions, Projected, RadiusMode, project};
+pub use project_vjp::{ProjectInputGrad, ProjectedGrad, project_vjp};
+pub use raster_ref::{RasterOutput, SplatHit, rasterize_ref, splat_alpha, splat_alpha_cut};
+pub use raster_ref_vjp::{PixelGrad, rasterize_ref_vjp};
+pub use render::{Render, RenderGrad, render, render_vjp};

@@ -178,7 +178,10 @@ impl Dataset {
     /// non-finite matrix, a training time outside [0, 1], unsupported PNG, bad PLY.
     pub fn load(root: &Path, opts: &LoadOptions) -> Result<Self, DataError> {
         if !root.is_dir() {
-            return Err(DataError::Missing { path: root.display().to_string(), what: "dataset folder" });
+            return Err(DataError::Missing {
+                path: root.display().to_string(),
+                what: "dataset folder",
+            });
         }
         let mut ds = Self {
             root: root.to_path_buf(),
@@ -221,31 +224,63 @@ impl Dataset {
     /// The smallest and largest training time.
     #[must_use]
     pub fn train_time_range(&self) -> (f64, f64) {
-        self.train.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v.time), b.max(v.time)))
+        self.train
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v.time), b.max(v.time))
+            })
     }
 }
 
-fn load_split(root: &Path, split: SplitName, opts: &LoadOptions) -> Result<Option<Vec<View>>, DataError> {
+fn load_split(
+    root: &Path,
+    split: SplitName,
+    opts: &LoadOptions,
+) -> Result<Option<Vec<View>>, DataError> {
     let path = root.join(format!("transforms_{}.json", split.as_str()));
     if !path.is_file() {
         return Ok(None);
     }
     let p = path.display().to_string();
-    let text = std::fs::read_to_string(&path).map_err(|e| DataError::Invalid { path: p.clone(), msg: e.to_string() })?;
-    let file: TransformsFile = serde_json::from_str(&text).map_err(|e| DataError::Json { path: p.clone(), msg: e.to_string() })?;
-    if !(file.camera_angle_x.is_finite() && file.camera_angle_x > 0.0 && file.camera_angle_x < std::f64::consts::PI) {
-        return Err(DataError::Invalid { path: p, msg: format!("camera_angle_x = {} is not a field of view", file.camera_angle_x) });
+    let text = std::fs::read_to_string(&path).map_err(|e| DataError::Invalid {
+        path: p.clone(),
+        msg: e.to_string(),
+    })?;
+    let file: TransformsFile = serde_json::from_str(&text).map_err(|e| DataError::Json {
+        path: p.clone(),
+        msg: e.to_string(),
+    })?;
+    if !(file.camera_angle_x.is_finite()
+        && file.camera_angle_x > 0.0
+        && file.camera_angle_x < std::f64::consts::PI)
+    {
+        return Err(DataError::Invalid {
+            path: p,
+            msg: format!(
+                "camera_angle_x = {} is not a field of view",
+                file.camera_angle_x
+            ),
+        });
     }
     if file.frames.is_empty() {
-        return Err(DataError::Invalid { path: p, msg: "no frames".into() });
+        return Err(DataError::Invalid {
+            path: p,
+            msg: "no frames".into(),
+        });
     }
     let mut views = Vec::with_capacity(file.frames.len());
     for (i, f) in file.frames.iter().enumerate() {
         if !f.transform_matrix.iter().flatten().all(|v| v.is_finite()) {
-            return Err(DataError::Invalid { path: p, msg: format!("frame {i}: transform_matrix has a non-finite entry") });
+            return Err(DataError::Invalid {
+                path: p,
+                msg: format!("frame {i}: transform_matrix has a non-finite entry"),
+            });
         }
         if !f.time.is_finite() || (split == SplitName::Train && !(0.0..=1.0).contains(&f.time)) {
-            return Err(DataError::Invalid { path: p, msg: format!("frame {i}: time {} outside [0, 1]", f.time) });
+            return Err(DataError::Invalid {
+                path: p,
+                msg: format!("frame {i}: time {} outside [0, 1]", f.time),
+            });
         }
         let mut file_path = root.join(&f.file_path);
         if file_path.extension().is_none() {
@@ -269,14 +304,21 @@ fn load_split(root: &Path, split: SplitName, opts: &LoadOptions) -> Result<Optio
 fn load_images(views: &mut [View], opts: &LoadOptions, json: &str) -> Result<(), DataError> {
     let load = |v: &View| -> Result<(usize, usize, Option<Image<f32>>), DataError> {
         if !v.file.is_file() {
-            return Err(DataError::Missing { path: v.file.display().to_string(), what: "image listed in the transforms" });
+            return Err(DataError::Missing {
+                path: v.file.display().to_string(),
+                what: "image listed in the transforms",
+            });
         }
         if !opts.load_images {
             let (w, h) = image::image_dimensions(&v.file).map_err(|e| DataError::Invalid {
                 path: v.file.display().to_string(),
                 msg: format!("cannot read image size: {e}"),
             })?;
-            return Ok((w as usize / opts.downscale.max(1), h as usize / opts.downscale.max(1), None));
+            return Ok((
+                w as usize / opts.downscale.max(1),
+                h as usize / opts.downscale.max(1),
+                None,
+            ));
         }
         let img = downscale(&load_png_rgb(&v.file, opts.background)?, opts.downscale);
         Ok((img.width(), img.height(), Some(img)))
@@ -296,13 +338,19 @@ fn load_images(views: &mut [View], opts: &LoadOptions, json: &str) -> Result<(),
             Some(s) if s != (w, h) => {
                 return Err(DataError::Invalid {
                     path: v.file.display().to_string(),
-                    msg: format!("image is {w}x{h}, other frames of {json} are {}x{}", s.0, s.1),
+                    msg: format!(
+                        "image is {w}x{h}, other frames of {json} are {}x{}",
+                        s.0, s.1
+                    ),
                 });
             }
             Some(_) => {}
         }
         if w == 0 || h == 0 {
-            return Err(DataError::Invalid { path: v.file.display().to_string(), msg: "empty image after downscaling".into() });
+            return Err(DataError::Invalid {
+                path: v.file.display().to_string(),
+                msg: "empty image after downscaling".into(),
+            });
         }
         v.width = w;
         v.height = h;
@@ -318,17 +366,38 @@ fn load_images(views: &mut [View], opts: &LoadOptions, json: &str) -> Result<(),
 pub fn read_point_cloud(path: &Path) -> Result<PointCloud, DataError> {
     let t = PlyTable::read(path)?;
     let p = path.display().to_string();
-    let col = |n: &str| t.column(n).ok_or_else(|| DataError::Invalid { path: p.clone(), msg: format!("no `{n}` property") });
+    let col = |n: &str| {
+        t.column(n).ok_or_else(|| DataError::Invalid {
+            path: p.clone(),
+            msg: format!("no `{n}` property"),
+        })
+    };
     let (x, y, z) = (col("x")?, col("y")?, col("z")?);
     #[allow(clippy::cast_possible_truncation, reason = "positions stored as f32")]
-    let positions: Vec<[f32; 3]> = (0..t.len).map(|i| [x[i] as f32, y[i] as f32, z[i] as f32]).collect();
-    if let Some(i) = positions.iter().position(|p| !p.iter().all(|v| v.is_finite())) {
-        return Err(DataError::Invalid { path: p, msg: format!("vertex {i} has a non-finite position") });
+    let positions: Vec<[f32; 3]> = (0..t.len)
+        .map(|i| [x[i] as f32, y[i] as f32, z[i] as f32])
+        .collect();
+    if let Some(i) = positions
+        .iter()
+        .position(|p| !p.iter().all(|v| v.is_finite()))
+    {
+        return Err(DataError::Invalid {
+            path: p,
+            msg: format!("vertex {i} has a non-finite position"),
+        });
     }
     let colors = match (t.column("red"), t.column("green"), t.column("blue")) {
         (Some(r), Some(g), Some(b)) => {
             #[allow(clippy::cast_possible_truncation, reason = "8-bit colours")]
-            let c = (0..t.len).map(|i| [(r[i] / 255.0) as f32, (g[i] / 255.0) as f32, (b[i] / 255.0) as f32]).collect();
+            let c = (0..t.len)
+                .map(|i| {
+                    [
+                        (r[i] / 255.0) as f32,
+                        (g[i] / 255.0) as f32,
+                        (b[i] / 255.0) as f32,
+                    ]
+                })
+                .collect();
             Some(c)
         }
         _ => None,

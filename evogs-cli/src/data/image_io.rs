@@ -41,17 +41,34 @@ pub enum ImageIoError {
 pub fn load_png_rgb(path: &Path, background: [f32; 3]) -> Result<Image<f32>, ImageIoError> {
     let p = path.display().to_string();
     let reader = ImageReader::open(path)
-        .map_err(|e| ImageIoError::Read { path: p.clone(), msg: e.to_string() })?
+        .map_err(|e| ImageIoError::Read {
+            path: p.clone(),
+            msg: e.to_string(),
+        })?
         .with_guessed_format()
-        .map_err(|e| ImageIoError::Read { path: p.clone(), msg: e.to_string() })?;
+        .map_err(|e| ImageIoError::Read {
+            path: p.clone(),
+            msg: e.to_string(),
+        })?;
     if reader.format() != Some(image::ImageFormat::Png) {
-        return Err(ImageIoError::Unsupported { path: p, msg: "not a PNG file".into() });
+        return Err(ImageIoError::Unsupported {
+            path: p,
+            msg: "not a PNG file".into(),
+        });
     }
-    let img = reader.decode().map_err(|e| ImageIoError::Read { path: p.clone(), msg: e.to_string() })?;
+    let img = reader.decode().map_err(|e| ImageIoError::Read {
+        path: p.clone(),
+        msg: e.to_string(),
+    })?;
     match img.color() {
         ColorType::L8 | ColorType::La8 | ColorType::Rgb8 | ColorType::Rgba8 => {}
         ColorType::L16 | ColorType::La16 | ColorType::Rgb16 | ColorType::Rgba16 => {}
-        other => return Err(ImageIoError::Unsupported { path: p, msg: format!("colour type {other:?}") }),
+        other => {
+            return Err(ImageIoError::Unsupported {
+                path: p,
+                msg: format!("colour type {other:?}"),
+            });
+        }
     }
     let rgba = img.to_rgba32f();
     let (w, h) = (rgba.width() as usize, rgba.height() as usize);
@@ -99,7 +116,11 @@ pub fn to_rgb8(img: &Image<f32>) -> Vec<u8> {
     img.data()
         .iter()
         .map(|v| {
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "clamped to [0, 255]")]
+            #[allow(
+                clippy::cast_possible_truncation,
+                clippy::cast_sign_loss,
+                reason = "clamped to [0, 255]"
+            )]
             let b = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
             b
         })
@@ -116,8 +137,14 @@ pub fn save_png(img: &Image<f32>, path: &Path) -> Result<(), ImageIoError> {
         u32::try_from(img.height()).unwrap_or(u32::MAX),
         to_rgb8(img),
     )
-    .ok_or_else(|| ImageIoError::Write { path: path.display().to_string(), msg: "bad image size".into() })?;
-    buf.save(path).map_err(|e| ImageIoError::Write { path: path.display().to_string(), msg: e.to_string() })
+    .ok_or_else(|| ImageIoError::Write {
+        path: path.display().to_string(),
+        msg: "bad image size".into(),
+    })?;
+    buf.save(path).map_err(|e| ImageIoError::Write {
+        path: path.display().to_string(),
+        msg: e.to_string(),
+    })
 }
 
 /// Writes an animated, looping GIF of equally sized frames (`delay_ms` per frame).
@@ -126,28 +153,40 @@ pub fn save_png(img: &Image<f32>, path: &Path) -> Result<(), ImageIoError> {
 /// I/O or encoding failures, or frames of different sizes.
 pub fn save_gif(frames: &[Image<f32>], delay_ms: u32, path: &Path) -> Result<(), ImageIoError> {
     use image::codecs::gif::{GifEncoder, Repeat};
-    let err = |msg: String| ImageIoError::Write { path: path.display().to_string(), msg };
+    let err = |msg: String| ImageIoError::Write {
+        path: path.display().to_string(),
+        msg,
+    };
     let file = std::fs::File::create(path).map_err(|e| err(e.to_string()))?;
     let mut enc = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
-    enc.set_repeat(Repeat::Infinite).map_err(|e| err(e.to_string()))?;
+    enc.set_repeat(Repeat::Infinite)
+        .map_err(|e| err(e.to_string()))?;
     let delay = image::Delay::from_numer_denom_ms(delay_ms, 1);
     for f in frames {
         if !f.same_size(&frames[0]) {
             return Err(err("GIF frames differ in size".into()));
         }
-        let rgba: Vec<u8> = to_rgb8(f).chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
+        let rgba: Vec<u8> = to_rgb8(f)
+            .chunks_exact(3)
+            .flat_map(|p| [p[0], p[1], p[2], 255])
+            .collect();
         let buf = image::RgbaImage::from_raw(
             u32::try_from(f.width()).unwrap_or(u32::MAX),
             u32::try_from(f.height()).unwrap_or(u32::MAX),
             rgba,
         )
         .ok_or_else(|| err("bad frame size".into()))?;
-        enc.encode_frame(image::Frame::from_parts(buf, 0, 0, delay)).map_err(|e| err(e.to_string()))?;
+        enc.encode_frame(image::Frame::from_parts(buf, 0, 0, delay))
+            .map_err(|e| err(e.to_string()))?;
     }
     Ok(())
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::float_cmp,
+    reason = "values exactly representable in 8 bits round-trip exactly"
+)]
 mod tests {
     use super::*;
 
@@ -156,15 +195,24 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("evogs-img-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("tmp");
         // A 2x1 RGBA PNG: opaque red, and fully transparent.
-        let rgba = image::RgbaImage::from_raw(2, 1, vec![255, 0, 0, 255, 0, 255, 0, 0]).expect("buffer");
+        let rgba =
+            image::RgbaImage::from_raw(2, 1, vec![255, 0, 0, 255, 0, 255, 0, 0]).expect("buffer");
         let p = dir.join("a.png");
         rgba.save(&p).expect("save");
         let img = load_png_rgb(&p, [1.0, 1.0, 1.0]).expect("load");
         assert_eq!(img.get(0, 0), [1.0, 0.0, 0.0], "opaque pixel kept");
-        assert_eq!(img.get(1, 0), [1.0, 1.0, 1.0], "transparent pixel shows the background");
+        assert_eq!(
+            img.get(1, 0),
+            [1.0, 1.0, 1.0],
+            "transparent pixel shows the background"
+        );
         let q = dir.join("b.png");
         save_png(&img, &q).expect("save");
-        assert_eq!(load_png_rgb(&q, [0.0; 3]).expect("reload"), img, "8-bit round trip of exact values");
+        assert_eq!(
+            load_png_rgb(&q, [0.0; 3]).expect("reload"),
+            img,
+            "8-bit round trip of exact values"
+        );
         std::fs::write(dir.join("c.png"), b"not a png").expect("write");
         let e = load_png_rgb(&dir.join("c.png"), [0.0; 3]).expect_err("garbage must fail");
         assert!(e.to_string().contains("c.png"), "error names the file: {e}");

@@ -95,7 +95,10 @@ impl PlyTable {
     /// The column with this property name.
     #[must_use]
     pub fn column(&self, name: &str) -> Option<&[f64]> {
-        self.names.iter().position(|n| n == name).map(|i| self.columns[i].as_slice())
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .map(|i| self.columns[i].as_slice())
     }
 
     /// Reads a PLY file's vertex element.
@@ -104,7 +107,10 @@ impl PlyTable {
     /// [`PlyError`] naming the file and the problem.
     pub fn read(path: &Path) -> Result<Self, PlyError> {
         let p = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| PlyError::Io { path: p.clone(), source })?;
+        let bytes = std::fs::read(path).map_err(|source| PlyError::Io {
+            path: p.clone(),
+            source,
+        })?;
         Self::parse(&bytes).map_err(|msg| PlyError::Malformed { path: p, msg })
     }
 
@@ -131,15 +137,21 @@ impl PlyTable {
                 ["element", name, n] => {
                     in_vertex = *name == "vertex";
                     if in_vertex {
-                        n_vertex = Some(n.parse::<usize>().map_err(|_| format!("bad vertex count `{n}`"))?);
+                        n_vertex = Some(
+                            n.parse::<usize>()
+                                .map_err(|_| format!("bad vertex count `{n}`"))?,
+                        );
                         seen_vertex = true;
                     } else if !seen_vertex {
                         return Err(format!("element `{name}` before `vertex` is not supported"));
                     }
                 }
-                ["property", "list", ..] if in_vertex => return Err("list properties in `vertex` are not supported".into()),
+                ["property", "list", ..] if in_vertex => {
+                    return Err("list properties in `vertex` are not supported".into());
+                }
                 ["property", ty, name] if in_vertex => {
-                    let s = Scalar::parse(ty).ok_or_else(|| format!("unknown property type `{ty}`"))?;
+                    let s =
+                        Scalar::parse(ty).ok_or_else(|| format!("unknown property type `{ty}`"))?;
                     props.push(((*name).to_string(), s));
                 }
                 _ => {}
@@ -157,15 +169,24 @@ impl PlyTable {
                 let mut tokens = text.split_ascii_whitespace();
                 for v in 0..n {
                     for col in &mut columns {
-                        let t = tokens.next().ok_or_else(|| format!("file ends at vertex {v} of {n}"))?;
-                        col.push(t.parse::<f64>().map_err(|_| format!("vertex {v}: `{t}` is not a number"))?);
+                        let t = tokens
+                            .next()
+                            .ok_or_else(|| format!("file ends at vertex {v} of {n}"))?;
+                        col.push(
+                            t.parse::<f64>()
+                                .map_err(|_| format!("vertex {v}: `{t}` is not a number"))?,
+                        );
                     }
                 }
             }
             Some("binary_little_endian") => {
                 let stride: usize = props.iter().map(|(_, s)| s.size()).sum();
                 if body.len() < stride * n {
-                    return Err(format!("binary body holds {} bytes, {n} vertices need {}", body.len(), stride * n));
+                    return Err(format!(
+                        "binary body holds {} bytes, {n} vertices need {}",
+                        body.len(),
+                        stride * n
+                    ));
                 }
                 for rec in body.chunks_exact(stride).take(n) {
                     let mut off = 0;
@@ -175,10 +196,18 @@ impl PlyTable {
                     }
                 }
             }
-            Some(f) => return Err(format!("format `{f}` is not supported (ascii, binary_little_endian)")),
+            Some(f) => {
+                return Err(format!(
+                    "format `{f}` is not supported (ascii, binary_little_endian)"
+                ));
+            }
             None => return Err("no `format` line".into()),
         }
-        Ok(Self { names: props.into_iter().map(|(n, _)| n).collect(), columns, len: n })
+        Ok(Self {
+            names: props.into_iter().map(|(n, _)| n).collect(),
+            columns,
+            len: n,
+        })
     }
 
     /// Writes the table as binary little-endian `float` properties.
@@ -198,11 +227,18 @@ impl PlyTable {
         let mut out = Vec::with_capacity(header.len() + 4 * self.len * self.names.len());
         out.extend_from_slice(header.as_bytes());
         for c in &self.columns {
-            assert_eq!(c.len(), self.len, "column length differs from the table length");
+            assert_eq!(
+                c.len(),
+                self.len,
+                "column length differs from the table length"
+            );
         }
         for v in 0..self.len {
             for c in &self.columns {
-                #[allow(clippy::cast_possible_truncation, reason = "PLY float properties are f32")]
+                #[allow(
+                    clippy::cast_possible_truncation,
+                    reason = "PLY float properties are f32"
+                )]
                 out.extend_from_slice(&(c[v] as f32).to_le_bytes());
             }
         }

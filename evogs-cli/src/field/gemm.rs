@@ -30,11 +30,20 @@ pub trait Gemm: Real + nalgebra::RealField {
     ///
     /// # Panics
     /// If the shapes do not agree or a slice is too short for its shape and strides.
-    fn gemm(alpha: Self, a: MatRef<'_, Self>, b: MatRef<'_, Self>, beta: Self, c: (&mut [Self], usize, usize, usize, usize)) {
+    fn gemm(
+        alpha: Self,
+        a: MatRef<'_, Self>,
+        b: MatRef<'_, Self>,
+        beta: Self,
+        c: (&mut [Self], usize, usize, usize, usize),
+    ) {
         let (ad, am, ak, ars, acs) = a;
         let (bd, bk, bn, brs, bcs) = b;
         let (cd, cm, cn, crs, ccs) = c;
-        assert!(am == cm && bn == cn && ak == bk, "gemm: shapes {am}x{ak} · {bk}x{bn} -> {cm}x{cn}");
+        assert!(
+            am == cm && bn == cn && ak == bk,
+            "gemm: shapes {am}x{ak} · {bk}x{bn} -> {cm}x{cn}"
+        );
         if cm == 0 || cn == 0 {
             return;
         }
@@ -46,7 +55,11 @@ pub trait Gemm: Real + nalgebra::RealField {
                         s += ad[i * ars + l * acs] * bd[l * brs + j * bcs];
                     }
                     let c = &mut cd[i * crs + j * ccs];
-                    *c = if beta == Self::ZERO { alpha * s } else { alpha * s + beta * *c };
+                    *c = if beta == Self::ZERO {
+                        alpha * s
+                    } else {
+                        alpha * s + beta * *c
+                    };
                 }
             }
             return;
@@ -81,23 +94,48 @@ mod tests {
     fn strided_products_match_naive_loops() {
         // Large enough (> 5 in every dimension) to take the matrixmultiply path.
         let (m, k, n) = (9, 7, 8);
-        let a: Vec<f64> = (0..m * k).map(|i| f64::from(u32::try_from(i).expect("small")) * 0.1 - 2.0).collect();
-        let b: Vec<f64> = (0..k * n).map(|i| (f64::from(u32::try_from(i).expect("small")) * 0.37).sin()).collect();
+        let a: Vec<f64> = (0..m * k)
+            .map(|i| f64::from(u32::try_from(i).expect("small")) * 0.1 - 2.0)
+            .collect();
+        let b: Vec<f64> = (0..k * n)
+            .map(|i| (f64::from(u32::try_from(i).expect("small")) * 0.37).sin())
+            .collect();
         let mut c = vec![1.0; m * n];
-        f64::gemm(2.0, row_major(&a, m, k), row_major(&b, k, n), 0.5, (&mut c, m, n, n, 1));
+        f64::gemm(
+            2.0,
+            row_major(&a, m, k),
+            row_major(&b, k, n),
+            0.5,
+            (&mut c, m, n, n, 1),
+        );
         for i in 0..m {
             for j in 0..n {
                 let s: f64 = (0..k).map(|l| a[i * k + l] * b[l * n + j]).sum();
-                assert!((c[i * n + j] - (2.0 * s + 0.5)).abs() < 1e-12, "entry ({i}, {j})");
+                assert!(
+                    (c[i * n + j] - (2.0 * s + 0.5)).abs() < 1e-12,
+                    "entry ({i}, {j})"
+                );
             }
         }
         // Aᵀ·A through swapped strides, and a thin (3-column) product.
         let mut g = vec![0.0; k * k];
-        f64::gemm(1.0, transposed(&a, m, k), row_major(&a, m, k), 0.0, (&mut g, k, k, k, 1));
+        f64::gemm(
+            1.0,
+            transposed(&a, m, k),
+            row_major(&a, m, k),
+            0.0,
+            (&mut g, k, k, k, 1),
+        );
         let s: f64 = (0..m).map(|l| a[l * k + 2] * a[l * k + 5]).sum();
         assert!((g[2 * k + 5] - s).abs() < 1e-12, "AᵀA entry");
         let mut t = vec![0.0; m * 3];
-        f64::gemm(1.0, row_major(&a, m, k), (&b, k, 3, n, 1), 0.0, (&mut t, m, 3, 3, 1));
+        f64::gemm(
+            1.0,
+            row_major(&a, m, k),
+            (&b, k, 3, n, 1),
+            0.0,
+            (&mut t, m, 3, 3, 1),
+        );
         let s: f64 = (0..k).map(|l| a[4 * k + l] * b[l * n + 1]).sum();
         assert!((t[4 * 3 + 1] - s).abs() < 1e-12, "thin product");
     }

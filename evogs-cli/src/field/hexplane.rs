@@ -125,7 +125,11 @@ fn axis<T: Real>(c: T, n: usize) -> (usize, T, T) {
     } else {
         (u, scale)
     };
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "u is in [0, n − 1]")]
+    #[allow(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "u is in [0, n − 1]"
+    )]
     let cell = (u.floor().to_f64() as usize).min(n - 2);
     (cell, u - T::from_usize(cell), d)
 }
@@ -136,22 +140,56 @@ impl HexPlane {
     /// # Panics
     /// If a resolution is below 2, there are no levels or channels, or the box is empty.
     #[must_use]
-    pub fn new(cfg: &HexPlaneConfig, aabb_min: [f64; 3], aabb_max: [f64; 3], time: TimeMapping) -> Self {
-        assert!(cfg.channels > 0 && !cfg.multires.is_empty(), "HexPlane needs channels and at least one level");
-        assert!((0..3).all(|a| aabb_max[a] > aabb_min[a]), "HexPlane bounding box is empty");
+    pub fn new(
+        cfg: &HexPlaneConfig,
+        aabb_min: [f64; 3],
+        aabb_max: [f64; 3],
+        time: TimeMapping,
+    ) -> Self {
+        assert!(
+            cfg.channels > 0 && !cfg.multires.is_empty(),
+            "HexPlane needs channels and at least one level"
+        );
+        assert!(
+            (0..3).all(|a| aabb_max[a] > aabb_min[a]),
+            "HexPlane bounding box is empty"
+        );
         let mut offset = 0;
         let mut planes = Vec::new();
         for &m in &cfg.multires {
-            let res = [cfg.resolution[0] * m, cfg.resolution[1] * m, cfg.resolution[2] * m, cfg.resolution[3]];
-            assert!(res.iter().all(|&r| r >= 2), "HexPlane resolutions must be at least 2");
-            let mut level = [PlaneLayout { offset: 0, width: 0, height: 0 }; 6];
+            let res = [
+                cfg.resolution[0] * m,
+                cfg.resolution[1] * m,
+                cfg.resolution[2] * m,
+                cfg.resolution[3],
+            ];
+            assert!(
+                res.iter().all(|&r| r >= 2),
+                "HexPlane resolutions must be at least 2"
+            );
+            let mut level = [PlaneLayout {
+                offset: 0,
+                width: 0,
+                height: 0,
+            }; 6];
             for (p, &(i, j)) in PLANE_AXES.iter().enumerate() {
-                level[p] = PlaneLayout { offset, width: res[i], height: res[j] };
+                level[p] = PlaneLayout {
+                    offset,
+                    width: res[i],
+                    height: res[j],
+                };
                 offset += res[i] * res[j] * cfg.channels;
             }
             planes.push(level);
         }
-        Self { channels: cfg.channels, planes, n_params: offset, aabb_min, aabb_max, time }
+        Self {
+            channels: cfg.channels,
+            planes,
+            n_params: offset,
+            aabb_min,
+            aabb_max,
+            time,
+        }
     }
 
     /// Number of parameters (all plane values).
@@ -203,7 +241,11 @@ impl HexPlane {
             for p in 0..6 {
                 let r = self.plane_range(l, p);
                 for v in &mut out[r] {
-                    *v = if TIME_PLANES.contains(&p) { T::ONE } else { T::from_f64(rng.uniform(0.1, 0.5)) };
+                    *v = if TIME_PLANES.contains(&p) {
+                        T::ONE
+                    } else {
+                        T::from_f64(rng.uniform(0.1, 0.5))
+                    };
                 }
             }
         }
@@ -232,7 +274,15 @@ impl HexPlane {
         let (col, fx, du) = axis(c[i], pl.width);
         let (row, fy, dv) = axis(c[j], pl.height);
         let ch = self.channels;
-        Lookup { base: pl.offset + (row * pl.width + col) * ch, col_step: ch, row_step: pl.width * ch, fx, fy, du, dv }
+        Lookup {
+            base: pl.offset + (row * pl.width + col) * ch,
+            col_step: ch,
+            row_step: pl.width * ch,
+            fx,
+            fy,
+            du,
+            dv,
+        }
     }
 
     /// Writes the sampled C-vector of a lookup into `out`.
@@ -240,9 +290,15 @@ impl HexPlane {
     pub fn sample<T: Real>(params: &[T], lk: &Lookup<T>, out: &mut [T]) {
         let (w00, w10, w01, w11) = corner_weights(lk.fx, lk.fy);
         let b = lk.base;
-        let (p00, p10) = (&params[b..b + out.len()], &params[b + lk.col_step..b + lk.col_step + out.len()]);
+        let (p00, p10) = (
+            &params[b..b + out.len()],
+            &params[b + lk.col_step..b + lk.col_step + out.len()],
+        );
         let r = b + lk.row_step;
-        let (p01, p11) = (&params[r..r + out.len()], &params[r + lk.col_step..r + lk.col_step + out.len()]);
+        let (p01, p11) = (
+            &params[r..r + out.len()],
+            &params[r + lk.col_step..r + lk.col_step + out.len()],
+        );
         for c in 0..out.len() {
             out[c] = w00 * p00[c] + w10 * p10[c] + w01 * p01[c] + w11 * p11[c];
         }
@@ -259,8 +315,14 @@ impl HexPlane {
         let n = g.len();
         let b = lk.base;
         let r = b + lk.row_step;
-        let (p00, p10) = (&params[b..b + n], &params[b + lk.col_step..b + lk.col_step + n]);
-        let (p01, p11) = (&params[r..r + n], &params[r + lk.col_step..r + lk.col_step + n]);
+        let (p00, p10) = (
+            &params[b..b + n],
+            &params[b + lk.col_step..b + lk.col_step + n],
+        );
+        let (p01, p11) = (
+            &params[r..r + n],
+            &params[r + lk.col_step..r + lk.col_step + n],
+        );
         let (mut gu, mut gv) = (T::ZERO, T::ZERO);
         let (fx, fy) = (lk.fx, lk.fy);
         for c in 0..n {
@@ -275,7 +337,12 @@ impl HexPlane {
     pub fn scatter<T: Real>(d_params: &mut [T], lk: &Lookup<T>, g: &[T]) {
         let (w00, w10, w01, w11) = corner_weights(lk.fx, lk.fy);
         let n = g.len();
-        for (off, w) in [(0, w00), (lk.col_step, w10), (lk.row_step, w01), (lk.row_step + lk.col_step, w11)] {
+        for (off, w) in [
+            (0, w00),
+            (lk.col_step, w10),
+            (lk.row_step, w01),
+            (lk.row_step + lk.col_step, w11),
+        ] {
             let dst = &mut d_params[lk.base + off..lk.base + off + n];
             for c in 0..n {
                 dst[c] += w * g[c];
@@ -286,5 +353,10 @@ impl HexPlane {
 
 #[inline]
 fn corner_weights<T: Real>(fx: T, fy: T) -> (T, T, T, T) {
-    ((T::ONE - fx) * (T::ONE - fy), fx * (T::ONE - fy), (T::ONE - fx) * fy, fx * fy)
+    (
+        (T::ONE - fx) * (T::ONE - fy),
+        fx * (T::ONE - fy),
+        (T::ONE - fx) * fy,
+        fx * fy,
+    )
 }

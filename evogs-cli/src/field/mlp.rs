@@ -122,18 +122,34 @@ impl Mlp {
         for v in &mut out[self.b2()..self.scales_offset()] {
             *v = T::ZERO;
         }
-        for (v, s) in out[self.scales_offset()..self.n_params()].iter_mut().zip(scales) {
+        for (v, s) in out[self.scales_offset()..self.n_params()]
+            .iter_mut()
+            .zip(scales)
+        {
             *v = T::from_f64(s);
         }
     }
 
     /// Forward pass for `rows` rows of `features` (rows × F, row-major); writes the scaled
     /// outputs (rows × 9) and keeps the activations.
-    pub fn forward<T: Gemm>(&self, params: &[T], features: &[T], rows: usize, act: &mut MlpActivations<T>, out: &mut [T]) {
+    pub fn forward<T: Gemm>(
+        &self,
+        params: &[T],
+        features: &[T],
+        rows: usize,
+        act: &mut MlpActivations<T>,
+        out: &mut [T],
+    ) {
         let (f, w) = (self.input, self.width);
         let p = params;
         fill_rows(&mut act.trunk[..rows * w], &p[self.b0()..self.w1()]);
-        T::gemm(T::ONE, row_major(&features[..rows * f], rows, f), transposed(&p[..self.b0()], w, f), T::ONE, (&mut act.trunk[..rows * w], rows, w, w, 1));
+        T::gemm(
+            T::ONE,
+            row_major(&features[..rows * f], rows, f),
+            transposed(&p[..self.b0()], w, f),
+            T::ONE,
+            (&mut act.trunk[..rows * w], rows, w, w, 1),
+        );
         relu(&act.trunk[..rows * w], &mut act.trunk_relu[..rows * w]);
         fill_rows(&mut act.heads[..rows * 3 * w], &p[self.b1()..self.w2()]);
         T::gemm(
@@ -143,8 +159,14 @@ impl Mlp {
             T::ONE,
             (&mut act.heads[..rows * 3 * w], rows, 3 * w, 3 * w, 1),
         );
-        relu(&act.heads[..rows * 3 * w], &mut act.heads_relu[..rows * 3 * w]);
-        fill_rows(&mut act.raw[..rows * N_OUT], &p[self.b2()..self.scales_offset()]);
+        relu(
+            &act.heads[..rows * 3 * w],
+            &mut act.heads_relu[..rows * 3 * w],
+        );
+        fill_rows(
+            &mut act.raw[..rows * N_OUT],
+            &p[self.b2()..self.scales_offset()],
+        );
         for h in 0..3 {
             let w2 = &p[self.w2() + 3 * h * w..self.w2() + 3 * (h + 1) * w];
             T::gemm(
@@ -156,7 +178,10 @@ impl Mlp {
             );
         }
         let scales = &p[self.scales_offset()..self.n_params()];
-        for (o, r) in out[..rows * N_OUT].chunks_exact_mut(N_OUT).zip(act.raw.chunks_exact(N_OUT)) {
+        for (o, r) in out[..rows * N_OUT]
+            .chunks_exact_mut(N_OUT)
+            .zip(act.raw.chunks_exact(N_OUT))
+        {
             for k in 0..N_OUT {
                 o[k] = r[k] * scales[k / 3];
             }
@@ -179,13 +204,21 @@ impl Mlp {
         let (f, w) = (self.input, self.width);
         let p = params;
         let so = self.scales_offset();
-        for ((dr, d), r) in act.d_raw[..rows * N_OUT].chunks_exact_mut(N_OUT).zip(d_out.chunks_exact(N_OUT)).zip(act.raw.chunks_exact(N_OUT)) {
+        for ((dr, d), r) in act.d_raw[..rows * N_OUT]
+            .chunks_exact_mut(N_OUT)
+            .zip(d_out.chunks_exact(N_OUT))
+            .zip(act.raw.chunks_exact(N_OUT))
+        {
             for k in 0..N_OUT {
                 d_params[so + k / 3] += d[k] * r[k];
                 dr[k] = d[k] * p[so + k / 3];
             }
         }
-        col_sums(&act.d_raw[..rows * N_OUT], N_OUT, &mut d_params[self.b2()..so]);
+        col_sums(
+            &act.d_raw[..rows * N_OUT],
+            N_OUT,
+            &mut d_params[self.b2()..so],
+        );
         for h in 0..3 {
             let w2 = self.w2() + 3 * h * w;
             // dW2_h += d_raw_hᵀ · relu(H_h)
@@ -206,7 +239,11 @@ impl Mlp {
             );
         }
         relu_mask(&act.heads[..rows * 3 * w], &mut act.d_heads[..rows * 3 * w]);
-        col_sums(&act.d_heads[..rows * 3 * w], 3 * w, &mut d_params[self.b1()..self.w2()]);
+        col_sums(
+            &act.d_heads[..rows * 3 * w],
+            3 * w,
+            &mut d_params[self.b1()..self.w2()],
+        );
         T::gemm(
             T::ONE,
             transposed(&act.d_heads[..rows * 3 * w], rows, 3 * w),
@@ -222,7 +259,11 @@ impl Mlp {
             (&mut act.d_trunk[..rows * w], rows, w, w, 1),
         );
         relu_mask(&act.trunk[..rows * w], &mut act.d_trunk[..rows * w]);
-        col_sums(&act.d_trunk[..rows * w], w, &mut d_params[self.b0()..self.w1()]);
+        col_sums(
+            &act.d_trunk[..rows * w],
+            w,
+            &mut d_params[self.b0()..self.w1()],
+        );
         T::gemm(
             T::ONE,
             transposed(&act.d_trunk[..rows * w], rows, w),

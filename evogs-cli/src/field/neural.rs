@@ -28,7 +28,10 @@ pub const STATE_STRIDE: usize = 10;
 /// The per-Gaussian state layout of the dynamics: position, rotation, log-scale.
 #[must_use]
 pub fn gaussian_layout(count: usize) -> StateLayout {
-    StateLayout::particles(&[Block::Euclidean(3), Block::So3, Block::Euclidean(3)], count)
+    StateLayout::particles(
+        &[Block::Euclidean(3), Block::So3, Block::Euclidean(3)],
+        count,
+    )
 }
 
 /// The configuration of the neural field.
@@ -41,6 +44,16 @@ pub struct NeuralFieldConfig {
     /// Initial output scales (velocity, angular velocity, log-scale rate).
     pub output_scales: [f64; 3],
 }
+
+/// One work item of the batched VJP: chunk index, MLP gradient partial, lookups, sample
+/// gradients and position gradients of the chunk.
+type VjpItem<'a, T> = (
+    usize,
+    (
+        &'a mut [T],
+        (&'a mut [Lookup<T>], (&'a mut [T], &'a mut [T])),
+    ),
+);
 
 /// Scratch of one chunk (per worker; contents never outlive a chunk).
 #[derive(Debug)]
@@ -79,14 +92,33 @@ pub struct NeuralField<T> {
 impl<T: Gemm> NeuralField<T> {
     /// A freshly initialised field over the box `[aabb_min, aabb_max]`.
     #[must_use]
-    pub fn new(cfg: &NeuralFieldConfig, aabb_min: [f64; 3], aabb_max: [f64; 3], time: TimeMapping, seed: u64) -> Self {
+    pub fn new(
+        cfg: &NeuralFieldConfig,
+        aabb_min: [f64; 3],
+        aabb_max: [f64; 3],
+        time: TimeMapping,
+        seed: u64,
+    ) -> Self {
         let hex = HexPlane::new(&cfg.hexplane, aabb_min, aabb_max, time);
-        let mlp = Mlp { input: hex.feature_dim(), width: cfg.width };
+        let mlp = Mlp {
+            input: hex.feature_dim(),
+            width: cfg.width,
+        };
         let mut params = vec![T::ZERO; hex.n_params() + mlp.n_params()];
         let mut rng = SplitMix64::new(seed);
         hex.init_params(&mut rng, &mut params[..hex.n_params()]);
         mlp.init_params(&mut rng, cfg.output_scales, &mut params[hex.n_params()..]);
-        Self { hex, mlp, params, count: 0, par: Par::Seq, partials: Vec::new(), lookups: Vec::new(), d_samples: Vec::new(), d_pos: Vec::new() }
+        Self {
+            hex,
+            mlp,
+            params,
+            count: 0,
+            par: Par::Seq,
+            partials: Vec::new(),
+            lookups: Vec::new(),
+            d_samples: Vec::new(),
+            d_pos: Vec::new(),
+        }
     }
 
     /// The HexPlane layout.
@@ -133,13 +165,22 @@ impl<T: Gemm> NeuralField<T> {
     /// # Panics
     /// If the buffers are too short for `n`.
     pub fn eval_batch(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
-        assert!(n == 0 || (positions.len() >= (n - 1) * stride + 3 && out.len() >= n * N_OUT), "batch buffers too short");
+        assert!(
+            n == 0 || (positions.len() >= (n - 1) * stride + 3 && out.len() >= n * N_OUT),
+            "batch buffers too short"
+        );
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
         let run = |scratch: &mut ChunkScratch<T>, (ci, out_c): (usize, &mut [T])| {
             let rows = out_c.len() / N_OUT;
             let pos = &positions[ci * CHUNK * stride..];
             encode_chunk(hex, params, t, pos, stride, rows, scratch);
-            mlp.forward(&params[hex.n_params()..], &scratch.features, rows, &mut scratch.act, out_c);
+            mlp.forward(
+                &params[hex.n_params()..],
+                &scratch.features,
+                rows,
+                &mut scratch.act,
+                out_c,
+            );
         };
         let chunks = out[..n * N_OUT].chunks_mut(CHUNK * N_OUT).enumerate();
         match self.par {
@@ -174,7 +215,10 @@ impl<T: Gemm> NeuralField<T> {
         d_stride: usize,
         d_params: &mut [T],
     ) {
-        assert!(d_out.len() >= n * N_OUT && d_params.len() == self.params.len(), "vjp buffers have the wrong size");
+        assert!(
+            d_out.len() >= n * N_OUT && d_params.len() == self.params.len(),
+            "vjp buffers have the wrong size"
+        );
         let n_chunks = n.div_ceil(CHUNK);
         let n_lk = self.hex.n_lookups();
         let ch = self.hex.channels();
@@ -186,21 +230,47 @@ impl<T: Gemm> NeuralField<T> {
         self.d_pos.clear();
         self.d_pos.resize(n * 3, T::ZERO);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
-        let run = |scratch: &mut ChunkScratch<T>, (ci, (partial, (lks, (dss, dp)))): (usize, (&mut [T], (&mut [Lookup<T>], (&mut [T], &mut [T]))))| {
+        let run = |scratch: &mut ChunkScratch<T>,
+                   (ci, (partial, (lks, (dss, dp)))): VjpItem<'_, T>| {
             let rows = lks.len() / n_lk;
             let pos = &positions[ci * CHUNK * stride..];
             encode_chunk(hex, params, t, pos, stride, rows, scratch);
             let mut out = [T::ZERO; CHUNK * N_OUT];
-            mlp.forward(&params[hex.n_params()..], &scratch.features, rows, &mut scratch.act, &mut out[..rows * N_OUT]);
+            mlp.forward(
+                &params[hex.n_params()..],
+                &scratch.features,
+                rows,
+                &mut scratch.act,
+                &mut out[..rows * N_OUT],
+            );
             let d_o = &d_out[ci * CHUNK * N_OUT..ci * CHUNK * N_OUT + rows * N_OUT];
-            let ChunkScratch { features, d_features, act, .. } = scratch;
-            mlp.backward(&params[hex.n_params()..], features, rows, act, d_o, d_features, partial);
+            let ChunkScratch {
+                features,
+                d_features,
+                act,
+                ..
+            } = scratch;
+            mlp.backward(
+                &params[hex.n_params()..],
+                features,
+                rows,
+                act,
+                d_o,
+                d_features,
+                partial,
+            );
             decode_chunk_vjp(hex, params, t, pos, stride, rows, scratch, lks, dss, dp);
         };
         let items = self
             .partials
             .chunks_mut(n_mlp)
-            .zip(self.lookups.chunks_mut(CHUNK * n_lk).zip(self.d_samples.chunks_mut(CHUNK * n_lk * ch).zip(self.d_pos.chunks_mut(CHUNK * 3))))
+            .zip(
+                self.lookups.chunks_mut(CHUNK * n_lk).zip(
+                    self.d_samples
+                        .chunks_mut(CHUNK * n_lk * ch)
+                        .zip(self.d_pos.chunks_mut(CHUNK * 3)),
+                ),
+            )
             .enumerate();
         match self.par {
             Par::Seq => {
@@ -213,9 +283,11 @@ impl<T: Gemm> NeuralField<T> {
                 self.partials
                     .par_chunks_mut(n_mlp)
                     .zip(
-                        self.lookups
-                            .par_chunks_mut(CHUNK * n_lk)
-                            .zip(self.d_samples.par_chunks_mut(CHUNK * n_lk * ch).zip(self.d_pos.par_chunks_mut(CHUNK * 3))),
+                        self.lookups.par_chunks_mut(CHUNK * n_lk).zip(
+                            self.d_samples
+                                .par_chunks_mut(CHUNK * n_lk * ch)
+                                .zip(self.d_pos.par_chunks_mut(CHUNK * 3)),
+                        ),
                     )
                     .enumerate()
                     .for_each_init(|| ChunkScratch::new(hex, mlp), run);
@@ -275,7 +347,15 @@ impl<T: Gemm> NeuralField<T> {
 }
 
 /// Samples every plane for `rows` positions and forms the features (Hadamard per level).
-fn encode_chunk<T: Gemm>(hex: &HexPlane, params: &[T], t: T, pos: &[T], stride: usize, rows: usize, s: &mut ChunkScratch<T>) {
+fn encode_chunk<T: Gemm>(
+    hex: &HexPlane,
+    params: &[T],
+    t: T,
+    pos: &[T],
+    stride: usize,
+    rows: usize,
+    s: &mut ChunkScratch<T>,
+) {
     let ch = hex.channels();
     let n_lk = hex.n_lookups();
     let fd = hex.feature_dim();

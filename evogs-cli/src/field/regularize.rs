@@ -35,7 +35,13 @@ pub struct PlaneRegValues {
     pub total: f64,
 }
 
-fn smoothness<T: Real>(plane: &[T], rows: usize, row_len: usize, weight: f64, grad: &mut [T]) -> f64 {
+fn smoothness<T: Real>(
+    plane: &[T],
+    rows: usize,
+    row_len: usize,
+    weight: f64,
+    grad: &mut [T],
+) -> f64 {
     if rows < 3 {
         return 0.0;
     }
@@ -45,7 +51,11 @@ fn smoothness<T: Real>(plane: &[T], rows: usize, row_len: usize, weight: f64, gr
     let mut acc = 0.0;
     for h in 0..rows - 2 {
         for k in 0..row_len {
-            let (a, b, c) = (h * row_len + k, (h + 1) * row_len + k, (h + 2) * row_len + k);
+            let (a, b, c) = (
+                h * row_len + k,
+                (h + 1) * row_len + k,
+                (h + 2) * row_len + k,
+            );
             let d = plane[c] - T::TWO * plane[b] + plane[a];
             acc += d.to_f64() * d.to_f64();
             let gd = g * d;
@@ -76,23 +86,41 @@ fn l1_to_one<T: Real>(plane: &[T], weight: f64, grad: &mut [T]) -> f64 {
 
 /// Evaluates the regularisers on the plane parameters (`params[..hex.n_params()]`) and adds
 /// the weighted gradient into `d_params`.
-pub fn plane_regularizers<T: Real>(hex: &HexPlane, params: &[T], w: &PlaneRegWeights, d_params: &mut [T]) -> PlaneRegValues {
+pub fn plane_regularizers<T: Real>(
+    hex: &HexPlane,
+    params: &[T],
+    w: &PlaneRegWeights,
+    d_params: &mut [T],
+) -> PlaneRegValues {
     let mut v = PlaneRegValues::default();
     let ch = hex.channels();
     for l in 0..hex.levels() {
         for p in SPACE_PLANES {
             let r = hex.plane_range(l, p);
             let (rows, cols) = hex.plane_shape(l, p);
-            v.plane_tv += smoothness(&params[r.clone()], rows, cols * ch, w.plane_tv, &mut d_params[r]);
+            v.plane_tv += smoothness(
+                &params[r.clone()],
+                rows,
+                cols * ch,
+                w.plane_tv,
+                &mut d_params[r],
+            );
         }
         for p in TIME_PLANES {
             let r = hex.plane_range(l, p);
             let (rows, cols) = hex.plane_shape(l, p);
-            v.time_smoothness += smoothness(&params[r.clone()], rows, cols * ch, w.time_smoothness, &mut d_params[r.clone()]);
+            v.time_smoothness += smoothness(
+                &params[r.clone()],
+                rows,
+                cols * ch,
+                w.time_smoothness,
+                &mut d_params[r.clone()],
+            );
             v.l1_time += l1_to_one(&params[r.clone()], w.l1_time, &mut d_params[r]);
         }
     }
-    v.total = w.plane_tv * v.plane_tv + w.time_smoothness * v.time_smoothness + w.l1_time * v.l1_time;
+    v.total =
+        w.plane_tv * v.plane_tv + w.time_smoothness * v.time_smoothness + w.l1_time * v.l1_time;
     v
 }
 
@@ -105,11 +133,19 @@ mod tests {
 
     #[test]
     fn gradient_matches_central_differences() {
-        let cfg = HexPlaneConfig { channels: 2, resolution: [3, 4, 3, 5], multires: vec![1] };
+        let cfg = HexPlaneConfig {
+            channels: 2,
+            resolution: [3, 4, 3, 5],
+            multires: vec![1],
+        };
         let hex = HexPlane::new(&cfg, [-1.0; 3], [1.0; 3], TimeMapping::Raw);
         let mut rng = SplitMix64::new(3);
         let mut x: Vec<f64> = (0..hex.n_params()).map(|_| rng.uniform(0.0, 2.0)).collect();
-        let w = PlaneRegWeights { plane_tv: 0.7, time_smoothness: 1.3, l1_time: 0.4 };
+        let w = PlaneRegWeights {
+            plane_tv: 0.7,
+            time_smoothness: 1.3,
+            l1_time: 0.4,
+        };
         let mut g = vec![0.0; x.len()];
         let v = plane_regularizers(&hex, &x, &w, &mut g);
         assert!(v.total > 0.0, "non-trivial value");
@@ -122,6 +158,8 @@ mod tests {
             &mut x,
             &mut num,
         );
-        GradCheck::new(1e-8, 1e-6).check(&g, &num).assert_passed("plane regularisers");
+        GradCheck::new(1e-8, 1e-6)
+            .check(&g, &num)
+            .assert_passed("plane regularisers");
     }
 }

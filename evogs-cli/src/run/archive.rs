@@ -44,7 +44,11 @@ impl Archive {
     /// An empty archive with metadata.
     #[must_use]
     pub fn new(meta: Value) -> Self {
-        Self { meta, f32s: Vec::new(), u64s: Vec::new() }
+        Self {
+            meta,
+            f32s: Vec::new(),
+            u64s: Vec::new(),
+        }
     }
     /// Adds an `f32` array.
     pub fn put_f32(&mut self, name: &str, data: &[f32]) {
@@ -57,12 +61,18 @@ impl Archive {
     /// An `f32` array by name.
     #[must_use]
     pub fn f32(&self, name: &str) -> Option<&[f32]> {
-        self.f32s.iter().find(|(n, _)| n == name).map(|(_, d)| d.as_slice())
+        self.f32s
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, d)| d.as_slice())
     }
     /// A `u64` array by name.
     #[must_use]
     pub fn u64(&self, name: &str) -> Option<&[u64]> {
-        self.u64s.iter().find(|(n, _)| n == name).map(|(_, d)| d.as_slice())
+        self.u64s
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, d)| d.as_slice())
     }
 
     /// Writes the archive atomically.
@@ -70,7 +80,10 @@ impl Archive {
     /// # Errors
     /// I/O failures (the previous file, if any, is left intact).
     pub fn write(&self, path: &Path) -> Result<(), ArchiveError> {
-        let io = |source| ArchiveError::Io { path: path.display().to_string(), source };
+        let io = |source| ArchiveError::Io {
+            path: path.display().to_string(),
+            source,
+        };
         let mut arrays = Vec::new();
         for (n, d) in &self.f32s {
             arrays.push(json!({"name": n, "kind": "f32", "len": d.len()}));
@@ -78,8 +91,11 @@ impl Archive {
         for (n, d) in &self.u64s {
             arrays.push(json!({"name": n, "kind": "u64", "len": d.len()}));
         }
-        let header = serde_json::to_vec(&json!({"meta": self.meta, "arrays": arrays})).unwrap_or_default();
-        let mut buf = Vec::with_capacity(16 + header.len() + self.f32s.iter().map(|(_, d)| 4 * d.len()).sum::<usize>());
+        let header =
+            serde_json::to_vec(&json!({"meta": self.meta, "arrays": arrays})).unwrap_or_default();
+        let mut buf = Vec::with_capacity(
+            16 + header.len() + self.f32s.iter().map(|(_, d)| 4 * d.len()).sum::<usize>(),
+        );
         buf.extend_from_slice(MAGIC);
         buf.extend_from_slice(&(header.len() as u64).to_le_bytes());
         buf.extend_from_slice(&header);
@@ -109,27 +125,59 @@ impl Archive {
     /// I/O failures or a corrupt file.
     pub fn read(path: &Path) -> Result<Self, ArchiveError> {
         let p = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| ArchiveError::Io { path: p.clone(), source })?;
-        let corrupt = |msg: &str| ArchiveError::Corrupt { path: p.clone(), msg: msg.to_string() };
+        let bytes = std::fs::read(path).map_err(|source| ArchiveError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        let corrupt = |msg: &str| ArchiveError::Corrupt {
+            path: p.clone(),
+            msg: msg.to_string(),
+        };
         if bytes.len() < 16 || &bytes[..8] != MAGIC {
             return Err(corrupt("bad magic"));
         }
-        let hl = usize::try_from(u64::from_le_bytes(bytes[8..16].try_into().map_err(|_| corrupt("header"))?)).map_err(|_| corrupt("header length"))?;
-        let header: Value = serde_json::from_slice(bytes.get(16..16 + hl).ok_or_else(|| corrupt("truncated header"))?).map_err(|_| corrupt("header JSON"))?;
+        let hl = usize::try_from(u64::from_le_bytes(
+            bytes[8..16].try_into().map_err(|_| corrupt("header"))?,
+        ))
+        .map_err(|_| corrupt("header length"))?;
+        let header: Value = serde_json::from_slice(
+            bytes
+                .get(16..16 + hl)
+                .ok_or_else(|| corrupt("truncated header"))?,
+        )
+        .map_err(|_| corrupt("header JSON"))?;
         let mut ar = Self::new(header["meta"].clone());
         let mut off = 16 + hl;
-        for a in header["arrays"].as_array().ok_or_else(|| corrupt("no array list"))? {
+        for a in header["arrays"]
+            .as_array()
+            .ok_or_else(|| corrupt("no array list"))?
+        {
             let name = a["name"].as_str().ok_or_else(|| corrupt("array name"))?;
-            let len = usize::try_from(a["len"].as_u64().ok_or_else(|| corrupt("array length"))?).map_err(|_| corrupt("array length"))?;
+            let len = usize::try_from(a["len"].as_u64().ok_or_else(|| corrupt("array length"))?)
+                .map_err(|_| corrupt("array length"))?;
             match a["kind"].as_str() {
                 Some("f32") => {
-                    let b = bytes.get(off..off + 4 * len).ok_or_else(|| corrupt("truncated data"))?;
-                    ar.put_f32(name, &b.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect::<Vec<_>>());
+                    let b = bytes
+                        .get(off..off + 4 * len)
+                        .ok_or_else(|| corrupt("truncated data"))?;
+                    ar.put_f32(
+                        name,
+                        &b.chunks_exact(4)
+                            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                            .collect::<Vec<_>>(),
+                    );
                     off += 4 * len;
                 }
                 Some("u64") => {
-                    let b = bytes.get(off..off + 8 * len).ok_or_else(|| corrupt("truncated data"))?;
-                    ar.put_u64(name, &b.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap_or_default())).collect::<Vec<_>>());
+                    let b = bytes
+                        .get(off..off + 8 * len)
+                        .ok_or_else(|| corrupt("truncated data"))?;
+                    ar.put_u64(
+                        name,
+                        &b.chunks_exact(8)
+                            .map(|c| u64::from_le_bytes(c.try_into().unwrap_or_default()))
+                            .collect::<Vec<_>>(),
+                    );
                     off += 8 * len;
                 }
                 _ => return Err(corrupt("array kind")),

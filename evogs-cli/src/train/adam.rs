@@ -30,7 +30,11 @@ pub struct Adam {
 
 impl Default for Adam {
     fn default() -> Self {
-        Self { beta1: 0.9, beta2: 0.999, eps: 1e-15 }
+        Self {
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-15,
+        }
     }
 }
 
@@ -38,7 +42,11 @@ impl AdamState {
     /// Zero moments for `n` parameters.
     #[must_use]
     pub fn new(n: usize) -> Self {
-        Self { m: vec![0.0; n], v: vec![0.0; n], step: 0 }
+        Self {
+            m: vec![0.0; n],
+            v: vec![0.0; n],
+            step: 0,
+        }
     }
 
     /// Number of parameters.
@@ -53,27 +61,58 @@ impl AdamState {
         self.m.is_empty()
     }
 
-    /// One Adam step of `x` with gradient `g` and learning rate `lr` (no-op for lr = 0, but the
+    /// One Adam step of `x` with gradient `g` and learning rate `lr` (with lr = 0 the
     /// moments are still updated, as PyTorch does).
     ///
     /// # Panics
     /// If the lengths differ.
     pub fn step(&mut self, adam: &Adam, lr: f64, x: &mut [f32], g: &[f32]) {
-        assert!(x.len() == self.m.len() && g.len() == x.len(), "Adam group size mismatch");
+        assert!(
+            x.len() == self.m.len() && g.len() == x.len(),
+            "Adam group size mismatch"
+        );
+        self.step_iter(adam, lr, x.iter_mut().zip(g.iter().copied()));
+    }
+
+    /// One Adam step over `(parameter, gradient)` pairs (e.g. the components of a
+    /// `Vec<Vec3<f32>>`), in order; there must be exactly `len()` pairs.
+    ///
+    /// # Panics
+    /// If the number of pairs differs from the group size.
+    pub fn step_iter<'a>(
+        &mut self,
+        adam: &Adam,
+        lr: f64,
+        items: impl Iterator<Item = (&'a mut f32, f32)>,
+    ) {
         self.step += 1;
-        #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap, reason = "step counts are small")]
-        let t = self.step as i32;
+        #[allow(
+            clippy::cast_possible_truncation,
+            clippy::cast_possible_wrap,
+            reason = "step counts are small"
+        )]
+        let t = self.step.min(i32::MAX as u64) as i32;
         let bc1 = 1.0 - adam.beta1.powi(t);
         let bc2 = 1.0 - adam.beta2.powi(t);
-        #[allow(clippy::cast_possible_truncation, reason = "optimiser arithmetic in f32")]
-        let (b1, b2, step_size, eps, inv_sqrt_bc2) =
-            (adam.beta1 as f32, adam.beta2 as f32, (lr / bc1) as f32, adam.eps as f32, (1.0 / bc2.sqrt()) as f32);
-        for i in 0..x.len() {
-            let gi = g[i];
-            self.m[i] = b1 * self.m[i] + (1.0 - b1) * gi;
-            self.v[i] = b2 * self.v[i] + (1.0 - b2) * gi * gi;
-            x[i] -= step_size * self.m[i] / (self.v[i].sqrt() * inv_sqrt_bc2 + eps);
+        #[allow(
+            clippy::cast_possible_truncation,
+            reason = "optimiser arithmetic in f32"
+        )]
+        let (b1, b2, step_size, eps, inv_sqrt_bc2) = (
+            adam.beta1 as f32,
+            adam.beta2 as f32,
+            (lr / bc1) as f32,
+            adam.eps as f32,
+            (1.0 / bc2.sqrt()) as f32,
+        );
+        let mut count = 0;
+        for ((x, gi), (m, v)) in items.zip(self.m.iter_mut().zip(self.v.iter_mut())) {
+            *m = b1 * *m + (1.0 - b1) * gi;
+            *v = b2 * *v + (1.0 - b2) * gi * gi;
+            *x -= step_size * *m / (v.sqrt() * inv_sqrt_bc2 + eps);
+            count += 1;
         }
+        assert_eq!(count, self.m.len(), "Adam group size mismatch");
     }
 
     /// Keeps the entries of the items where `keep[item]` is true (`stride` values per item).
@@ -110,7 +149,7 @@ pub fn retain_items<T: Copy>(data: &mut Vec<T>, keep: &[bool], stride: usize) {
 }
 
 /// The exponential schedule `lr(step) = exp((1 − u) ln lr_init + u ln lr_final)`,
-/// `u = clamp(step/max_steps, 0, 1)`; zero if both ends are zero.
+/// `u = clamp(step/max_steps, 0, 1)`; zero if either end is zero (a frozen group).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ExpSchedule {
     /// Learning rate at step 0.
@@ -125,14 +164,18 @@ impl ExpSchedule {
     /// A constant learning rate.
     #[must_use]
     pub const fn constant(lr: f64) -> Self {
-        Self { init: lr, final_: lr, max_steps: 1 }
+        Self {
+            init: lr,
+            final_: lr,
+            max_steps: 1,
+        }
     }
 
     /// The learning rate at `step`.
     #[must_use]
     pub fn at(&self, step: u64) -> f64 {
         if self.init <= 0.0 || self.final_ <= 0.0 {
-            return if self.init == self.final_ { self.init } else { 0.0 };
+            return 0.0;
         }
         #[allow(clippy::cast_precision_loss, reason = "step counts are small")]
         let u = (step as f64 / self.max_steps.max(1) as f64).clamp(0.0, 1.0);
@@ -148,12 +191,18 @@ mod tests {
     fn adam_minimises_a_quadratic() {
         let mut x = vec![3.0_f32, -2.0];
         let mut s = AdamState::new(2);
-        let adam = Adam { eps: 1e-8, ..Adam::default() };
+        let adam = Adam {
+            eps: 1e-8,
+            ..Adam::default()
+        };
         for _ in 0..2000 {
             let g = [2.0 * x[0], 8.0 * x[1]];
             s.step(&adam, 0.05, &mut x, &g);
         }
-        assert!(x[0].abs() < 1e-2 && x[1].abs() < 1e-2, "converged to 0: {x:?}");
+        assert!(
+            x[0].abs() < 1e-2 && x[1].abs() < 1e-2,
+            "converged to 0: {x:?}"
+        );
     }
 
     #[test]
@@ -167,11 +216,18 @@ mod tests {
 
     #[test]
     fn schedule_is_log_linear() {
-        let s = ExpSchedule { init: 1e-2, final_: 1e-4, max_steps: 100 };
+        let s = ExpSchedule {
+            init: 1e-2,
+            final_: 1e-4,
+            max_steps: 100,
+        };
         assert!((s.at(0) - 1e-2).abs() < 1e-15, "start");
         assert!((s.at(50) - 1e-3).abs() < 1e-15, "geometric midpoint");
         assert!((s.at(500) - 1e-4).abs() < 1e-15, "clamped end");
-        assert!((ExpSchedule::constant(0.05).at(123) - 0.05).abs() < 1e-15, "constant");
+        assert!(
+            (ExpSchedule::constant(0.05).at(123) - 0.05).abs() < 1e-15,
+            "constant"
+        );
     }
 
     #[test]

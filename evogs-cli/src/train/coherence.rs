@@ -23,20 +23,34 @@ const PARALLEL_WEIGHT: f64 = 0.2;
 /// # Panics
 /// If the slices differ in length.
 #[must_use]
-pub fn coherence_loss(positions: &[[f64; 3]], velocities: &[[f64; 3]], k: usize, d_v: &mut [[f64; 3]]) -> f64 {
+pub fn coherence_loss(
+    positions: &[[f64; 3]],
+    velocities: &[[f64; 3]],
+    k: usize,
+    d_v: &mut [[f64; 3]],
+) -> f64 {
     let m = positions.len();
-    assert!(velocities.len() == m && d_v.len() == m, "coherence: length mismatch");
+    assert!(
+        velocities.len() == m && d_v.len() == m,
+        "coherence: length mismatch"
+    );
     if m < 2 {
         return 0.0;
     }
     let k = k.min(m - 1);
-    let dist = |a: &[f64; 3], b: &[f64; 3]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+    let dist = |a: &[f64; 3], b: &[f64; 3]| {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
     // Brute-force kNN (excluding self); ties broken by index for determinism.
     let mut nbrs: Vec<(usize, f64)> = Vec::with_capacity(m * k);
     let mut cand: Vec<(f64, usize)> = Vec::with_capacity(m);
     for i in 0..m {
         cand.clear();
-        cand.extend((0..m).filter(|&j| j != i).map(|j| (dist(&positions[i], &positions[j]), j)));
+        cand.extend(
+            (0..m)
+                .filter(|&j| j != i)
+                .map(|j| (dist(&positions[i], &positions[j]), j)),
+        );
         cand.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut best: Vec<(f64, usize)> = cand[..k].to_vec();
         best.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -63,7 +77,12 @@ pub fn coherence_loss(positions: &[[f64; 3]], velocities: &[[f64; 3]], k: usize,
             let c = dv.iter().map(|x| x * x).sum::<f64>() + a * a * f;
             sum_w += w;
             sum_wc += w * c;
-            terms.push((i, j, w, core::array::from_fn(|q| 2.0 * dv[q] + 2.0 * a * f * r[q])));
+            terms.push((
+                i,
+                j,
+                w,
+                core::array::from_fn(|q| 2.0 * dv[q] + 2.0 * a * f * r[q]),
+            ));
         }
     }
     let denom = sum_w + 1e-8;
@@ -87,8 +106,18 @@ mod tests {
     fn gradient_matches_central_differences() {
         let mut rng = SplitMix64::new(1);
         let m = 30;
-        let pos: Vec<[f64; 3]> = (0..m).map(|_| [rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0)]).collect();
-        let vel: Vec<[f64; 3]> = (0..m).map(|_| [rng.normal(), rng.normal(), rng.normal()]).collect();
+        let pos: Vec<[f64; 3]> = (0..m)
+            .map(|_| {
+                [
+                    rng.uniform(-1.0, 1.0),
+                    rng.uniform(-1.0, 1.0),
+                    rng.uniform(-1.0, 1.0),
+                ]
+            })
+            .collect();
+        let vel: Vec<[f64; 3]> = (0..m)
+            .map(|_| [rng.normal(), rng.normal(), rng.normal()])
+            .collect();
         let mut d = vec![[0.0; 3]; m];
         let l = coherence_loss(&pos, &vel, COHERENCE_K, &mut d);
         assert!(l > 0.0, "random velocities are incoherent");
@@ -104,7 +133,9 @@ mod tests {
             &mut num,
         );
         let a: Vec<f64> = d.iter().flatten().copied().collect();
-        GradCheck::new(1e-9, 1e-7).check(&a, &num).assert_passed("coherence gradient");
+        GradCheck::new(1e-9, 1e-7)
+            .check(&a, &num)
+            .assert_passed("coherence gradient");
     }
 
     #[test]
@@ -115,6 +146,9 @@ mod tests {
         assert!(same.abs() < 1e-15, "a common velocity is coherent");
         let stretch = coherence_loss(&pos, &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], 1, &mut d);
         let tear = coherence_loss(&pos, &[[0.0, 0.0, 0.0], [0.0, 1.0, 0.0]], 1, &mut d);
-        assert!((tear / stretch - 5.0).abs() < 1e-9, "perpendicular costs 5x parallel: {tear} vs {stretch}");
+        assert!(
+            (tear / stretch - 5.0).abs() < 1e-9,
+            "perpendicular costs 5x parallel: {tear} vs {stretch}"
+        );
     }
 }

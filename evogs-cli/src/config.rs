@@ -1,0 +1,464 @@
+//! The training configuration: one TOML-serialisable struct with documented defaults and two
+//! presets, `fast` (the default: sized for 2 CPU cores) and `paper` (method.md's numbers).
+//!
+//! Resolution order: preset → config file (`--config`, any subset of fields) → command-line
+//! flags. The resolved configuration is written to `RUN/config.toml`.
+
+use crate::field::{HexPlaneConfig, NeuralFieldConfig};
+use crate::model::{Motion, Waypoints};
+use serde::{Deserialize, Serialize};
+
+/// Everything a training run needs to know.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainConfig {
+    /// Preset this configuration started from (`fast` or `paper`).
+    pub preset: String,
+    /// Random seed (initialisation, view order, densification noise).
+    pub seed: u64,
+    /// Data loading and the training protocol.
+    pub data: DataConfig,
+    /// Initial Gaussians.
+    pub init: InitConfig,
+    /// Dynamics.
+    pub dynamics: DynamicsConfig,
+    /// The neural field.
+    pub field: NeuralFieldConfig,
+    /// Loss weights.
+    pub loss: LossConfig,
+    /// Learning rates and schedules.
+    pub optim: OptimConfig,
+    /// Densification, pruning and opacity reset.
+    pub densify: DensifyConfig,
+    /// Iteration counts and periodic tasks.
+    pub schedule: ScheduleConfig,
+}
+
+/// Data loading and the training protocol.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataConfig {
+    /// Background colour the RGBA frames are composited onto and renders end on.
+    pub background: [f32; 3],
+    /// Integer downscale factor of the images.
+    pub downscale: usize,
+    /// `full`, `sparse` (every `stride`-th distinct training time), `future` (train on
+    /// `t ≤ split_time`) or `backward` (train on `t ≥ split_time`).
+    pub protocol: Protocol,
+    /// Stride of the sparse protocol.
+    pub stride: usize,
+    /// Split time of the future and backward protocols.
+    pub split_time: f64,
+}
+
+/// Which training frames are supervised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Protocol {
+    /// All training frames.
+    Full,
+    /// Every k-th distinct training time.
+    Sparse,
+    /// Train on `t ≤ split_time`.
+    Future,
+    /// Train on `t ≥ split_time`.
+    Backward,
+}
+
+impl std::str::FromStr for Protocol {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "full" => Ok(Self::Full),
+            "sparse" => Ok(Self::Sparse),
+            "future" => Ok(Self::Future),
+            "backward" => Ok(Self::Backward),
+            _ => Err(format!(
+                "unknown protocol `{s}` (full, sparse, future, backward)"
+            )),
+        }
+    }
+}
+
+/// Initial Gaussians.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitConfig {
+    /// Use the dataset's `points3d.ply` when present (else random points).
+    pub use_points: bool,
+    /// Number of random points when there is no point cloud.
+    pub random_points: usize,
+    /// Half-size of the cube of random points.
+    pub random_extent: f64,
+    /// Storage SH degree (0–3).
+    pub sh_degree: usize,
+    /// Margin added to each side of the point cloud's bounding box for the HexPlane, as a
+    /// fraction of the box size.
+    pub aabb_margin: f64,
+}
+
+/// Dynamics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DynamicsConfig {
+    /// `velocity` (EvoGS), `deformation` (4DGS-style) or `static`.
+    pub motion: Motion,
+    /// ODE method: euler, midpoint, heun, rk4, rk38.
+    pub method: String,
+    /// Largest step as a fraction of the training time range (the last step of a frame is
+    /// shortened to land on its time).
+    pub step_fraction: f64,
+    /// Waypoints: trainable, snapshot or off.
+    pub waypoints: Waypoints,
+    /// Number of anchors (start, …, end of the training time range).
+    pub anchors: usize,
+    /// Time coordinate of the HexPlane: `normalized` (`[t_min, t_max] → [−1, 1]`) or `raw`.
+    pub time_mapping: String,
+}
+
+/// Loss weights.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LossConfig {
+    /// λ of the D-SSIM term: `(1 − λ)·L1 + λ·(1 − SSIM)`.
+    pub lambda_ssim: f64,
+    /// Spatial-plane smoothness weight.
+    pub plane_tv: f64,
+    /// Space-time-plane smoothness weight.
+    pub time_smoothness: f64,
+    /// L1-of-time-planes-toward-1 weight.
+    pub l1_time: f64,
+    /// Velocity coherence weight.
+    pub lambda_coherence: f64,
+    /// Gaussians sampled for the coherence loss.
+    pub coherence_samples: usize,
+    /// Anchor loss weight.
+    pub lambda_anchor: f64,
+    /// Iterations between anchor-loss evaluations (cycling through the segments).
+    pub anchor_every: u64,
+}
+
+/// Learning rates (per group) and schedules.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OptimConfig {
+    /// Positions: initial rate (× scene extent).
+    pub position_lr_init: f64,
+    /// Positions: final rate (× scene extent).
+    pub position_lr_final: f64,
+    /// MLP ("deformation") initial rate (× scene extent).
+    pub deformation_lr_init: f64,
+    /// MLP final rate (× scene extent).
+    pub deformation_lr_final: f64,
+    /// HexPlane ("grid") initial rate (× scene extent).
+    pub grid_lr_init: f64,
+    /// HexPlane final rate (× scene extent).
+    pub grid_lr_final: f64,
+    /// Steps of the exponential decays.
+    pub lr_max_steps: u64,
+    /// SH DC rate (higher coefficients: /20).
+    pub feature_lr: f64,
+    /// Opacity-logit rate.
+    pub opacity_lr: f64,
+    /// Log-scale rate.
+    pub scaling_lr: f64,
+    /// Quaternion rate.
+    pub rotation_lr: f64,
+}
+
+/// Densification, pruning and opacity reset (3DGS adaptive density control).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DensifyConfig {
+    /// First iteration of densification.
+    pub from_iter: u64,
+    /// Last iteration of densification.
+    pub until_iter: u64,
+    /// Iterations between densifications.
+    pub interval: u64,
+    /// Threshold on the view-averaged 2D-mean gradient norm (NDC units, as 3DGS).
+    pub grad_threshold: f64,
+    /// Clone vs split boundary: max scale ≤ `percent_dense` × extent clones.
+    pub percent_dense: f64,
+    /// Prune Gaussians with opacity below this.
+    pub min_opacity: f64,
+    /// Prune Gaussians with screen radius above this (pixels; 0 disables).
+    pub max_screen_size: f64,
+    /// Iterations between opacity resets (0 disables).
+    pub opacity_reset_interval: u64,
+    /// Upper bound on the number of Gaussians.
+    pub max_gaussians: usize,
+}
+
+/// Iteration counts and periodic tasks.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScheduleConfig {
+    /// Static warm-up iterations (plain 3DGS) before the dynamics are switched on.
+    pub warmup_iters: u64,
+    /// Total iterations (warm-up included).
+    pub iterations: u64,
+    /// Iterations between SH-degree increments.
+    pub sh_degree_interval: u64,
+    /// Iterations between checkpoints (0: only at the end).
+    pub checkpoint_every: u64,
+    /// Iterations between log lines.
+    pub log_every: u64,
+    /// Iterations between refreshes of snapshot anchors.
+    pub snapshot_every: u64,
+}
+
+impl TrainConfig {
+    /// The `fast` preset: sized so the shipped 200×200 scene trains in about ten minutes
+    /// on two CPU cores.
+    #[must_use]
+    pub fn fast() -> Self {
+        let mut c = Self::paper();
+        c.preset = "fast".into();
+        c.field = NeuralFieldConfig {
+            hexplane: HexPlaneConfig {
+                channels: 16,
+                resolution: [32, 32, 32, 16],
+                multires: vec![1, 2],
+            },
+            width: 32,
+            output_scales: [10.0, 1.0, 1.0],
+        };
+        c.schedule.warmup_iters = 1000;
+        c.schedule.iterations = 4000;
+        c.schedule.sh_degree_interval = 500;
+        c.densify.from_iter = 300;
+        c.densify.until_iter = 2500;
+        c.densify.interval = 100;
+        c.densify.opacity_reset_interval = 1500;
+        c.densify.max_gaussians = 60_000;
+        c.optim.lr_max_steps = 4000;
+        c.loss.coherence_samples = 500;
+        c
+    }
+
+    /// The `paper` preset: method.md's D-NeRF numbers (5000 static + 20000 dynamic
+    /// iterations, HexPlane 2 × 32 channels at [64, 64, 64, 25], MLP 64 wide, RK4 with steps
+    /// of 1/8 of the time range, three trainable anchors).
+    #[must_use]
+    pub fn paper() -> Self {
+        Self {
+            preset: "paper".into(),
+            seed: 0,
+            data: DataConfig {
+                background: [1.0; 3],
+                downscale: 1,
+                protocol: Protocol::Full,
+                stride: 2,
+                split_time: 0.75,
+            },
+            init: InitConfig {
+                use_points: true,
+                random_points: 2000,
+                random_extent: 1.3,
+                sh_degree: 3,
+                aabb_margin: 0.2,
+            },
+            dynamics: DynamicsConfig {
+                motion: Motion::Velocity,
+                method: "rk4".into(),
+                step_fraction: 0.125,
+                waypoints: Waypoints::Trainable,
+                anchors: 3,
+                time_mapping: "normalized".into(),
+            },
+            field: NeuralFieldConfig {
+                hexplane: HexPlaneConfig {
+                    channels: 32,
+                    resolution: [64, 64, 64, 25],
+                    multires: vec![1, 2],
+                },
+                width: 64,
+                output_scales: [10.0, 1.0, 1.0],
+            },
+            loss: LossConfig {
+                lambda_ssim: 0.2,
+                plane_tv: 1e-4,
+                time_smoothness: 1e-5,
+                l1_time: 1e-4,
+                lambda_coherence: 0.01,
+                coherence_samples: 1000,
+                lambda_anchor: 1.0,
+                anchor_every: 10,
+            },
+            optim: OptimConfig {
+                position_lr_init: 1.6e-4,
+                position_lr_final: 1.6e-6,
+                deformation_lr_init: 1.6e-4,
+                deformation_lr_final: 1.6e-6,
+                grid_lr_init: 1.6e-3,
+                grid_lr_final: 1.6e-5,
+                lr_max_steps: 25_000,
+                feature_lr: 2.5e-3,
+                opacity_lr: 0.05,
+                scaling_lr: 5e-3,
+                rotation_lr: 1e-3,
+            },
+            densify: DensifyConfig {
+                from_iter: 500,
+                until_iter: 15_000,
+                interval: 100,
+                grad_threshold: 2e-4,
+                percent_dense: 0.01,
+                min_opacity: 0.005,
+                max_screen_size: 0.0,
+                opacity_reset_interval: 3000,
+                max_gaussians: 360_000,
+            },
+            schedule: ScheduleConfig {
+                warmup_iters: 5000,
+                iterations: 25_000,
+                sh_degree_interval: 1000,
+                checkpoint_every: 5000,
+                log_every: 50,
+                snapshot_every: 500,
+            },
+        }
+    }
+
+    /// A preset by name.
+    ///
+    /// # Errors
+    /// An unknown name.
+    pub fn preset(name: &str) -> Result<Self, String> {
+        match name {
+            "fast" => Ok(Self::fast()),
+            "paper" => Ok(Self::paper()),
+            _ => Err(format!("unknown preset `{name}` (fast, paper)")),
+        }
+    }
+
+    /// Overlays a TOML document (any subset of the fields) onto this configuration.
+    ///
+    /// # Errors
+    /// Malformed TOML, unknown keys or wrongly typed values.
+    pub fn merge_toml(&self, text: &str) -> Result<Self, String> {
+        let mut base = toml::Value::try_from(self).map_err(|e| e.to_string())?;
+        let over: toml::Value = toml::from_str(text).map_err(|e| e.to_string())?;
+        merge(&mut base, over);
+        base.try_into().map_err(|e: toml::de::Error| e.to_string())
+    }
+
+    /// The configuration as TOML.
+    #[must_use]
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Checks the values for consistency.
+    ///
+    /// # Errors
+    /// A message naming the offending field.
+    pub fn validate(&self) -> Result<(), String> {
+        let chk = |ok: bool, msg: &str| if ok { Ok(()) } else { Err(msg.to_string()) };
+        chk(
+            self.data.downscale >= 1,
+            "data.downscale must be at least 1",
+        )?;
+        chk(self.data.stride >= 1, "data.stride must be at least 1")?;
+        chk(self.init.sh_degree <= 3, "init.sh_degree must be 0..=3")?;
+        chk(
+            self.dynamics.step_fraction > 0.0 && self.dynamics.step_fraction <= 1.0,
+            "dynamics.step_fraction must be in (0, 1]",
+        )?;
+        chk(
+            self.dynamics.anchors >= 1,
+            "dynamics.anchors must be at least 1",
+        )?;
+        self.dynamics
+            .method
+            .parse::<evogs_ode::Method>()
+            .map_err(|e| format!("dynamics.method: {e}"))?;
+        chk(
+            matches!(self.dynamics.time_mapping.as_str(), "normalized" | "raw"),
+            "dynamics.time_mapping must be `normalized` or `raw`",
+        )?;
+        chk(
+            self.field.hexplane.resolution.iter().all(|&r| r >= 2),
+            "field.hexplane.resolution entries must be at least 2",
+        )?;
+        chk(
+            !self.field.hexplane.multires.is_empty()
+                && self.field.hexplane.channels > 0
+                && self.field.width > 0,
+            "field sizes must be positive",
+        )?;
+        chk(
+            self.schedule.warmup_iters <= self.schedule.iterations,
+            "schedule.warmup_iters must not exceed schedule.iterations",
+        )?;
+        chk(
+            self.schedule.log_every > 0 && self.densify.interval > 0,
+            "log_every and densify.interval must be positive",
+        )?;
+        chk(
+            (0.0..=1.0).contains(&self.loss.lambda_ssim),
+            "loss.lambda_ssim must be in [0, 1]",
+        )?;
+        Ok(())
+    }
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self::fast()
+    }
+}
+
+/// Recursively overlays `over` onto `base` (tables merge, other values replace).
+fn merge(base: &mut toml::Value, over: toml::Value) {
+    match (base, over) {
+        (toml::Value::Table(b), toml::Value::Table(o)) => {
+            for (k, v) in o {
+                match b.get_mut(&k) {
+                    Some(slot) => merge(slot, v),
+                    None => {
+                        b.insert(k, v);
+                    }
+                }
+            }
+        }
+        (slot, v) => *slot = v,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn toml_round_trip_and_partial_overlay() {
+        let c = TrainConfig::fast();
+        assert_eq!(
+            c.merge_toml(&c.to_toml()).expect("round trip"),
+            c,
+            "identity overlay"
+        );
+        let d = c
+            .merge_toml("seed = 9\n[dynamics]\nmethod = \"euler\"\n")
+            .expect("overlay");
+        assert_eq!(
+            (d.seed, d.dynamics.method.as_str()),
+            (9, "euler"),
+            "overlaid fields"
+        );
+        assert_eq!(d.loss, c.loss, "other fields kept");
+        let e = c
+            .merge_toml("[dynamics]\nmethd = \"rk4\"\n")
+            .expect_err("unknown key");
+        assert!(e.contains("methd"), "error names the key: {e}");
+        assert!(
+            TrainConfig::paper().validate().is_ok() && c.validate().is_ok(),
+            "presets are valid"
+        );
+        let bad = c
+            .merge_toml("[dynamics]\nmethod = \"rk5\"\n")
+            .expect("parses");
+        assert!(bad.validate().is_err(), "unknown method rejected");
+    }
+}

@@ -1,0 +1,374 @@
+//! The Gaussians at a time `t` ([`Model::splats_at`]) and the way back
+//! ([`Model::backward_at`]): ODE integration with its exact discrete adjoint (velocity
+//! motion), the direct displacement and its VJP (deformation motion), and the anchor loss.
+//!
+//! The ODE state of Gaussian `i` is `[p (3), q̂ (4, unit), s (3)]`
+//! ([`gaussian_layout`](crate::field::gaussian_layout)); its tangent/cotangent is
+//! `[p (3), δ (3, world-frame rotation), s (3)]`. A raw anchor quaternion `q` enters as
+//! `q̂ = q/|q|`; the gradient returns through the left-cotangent conversion and the
+//! normalisation VJP.
+
+use super::{Model, ModelGrad, Motion, Waypoints};
+use crate::field::neural::STATE_STRIDE;
+use evogs_math::activation::normalize_quat_vjp;
+use evogs_math::so3::log_quat;
+use evogs_math::update::{
+    ambient_from_left_cotangent, exp_update_left, exp_update_left_vjp, left_cotangent_from_ambient,
+};
+use evogs_math::{Quat, Vec3};
+use evogs_ode::{
+    Checkpointing, Stepper, TimeGrid, Trajectory, VectorField, discrete_adjoint, integrate,
+    integrate_trajectory,
+};
+use evogs_splat::{Splats, SplatsGrad};
+
+/// Tangent entries per Gaussian.
+const TANGENT: usize = 9;
+
+/// What [`Model::backward_at`] needs from the forward pass of one frame.
+#[derive(Debug)]
+pub enum FrameTape {
+    /// The canonical Gaussians were rendered as they are.
+    Static,
+    /// Integrated from `anchor` along `trajectory`.
+    Velocity {
+        /// Anchor index.
+        anchor: usize,
+        /// The stored states.
+        trajectory: Trajectory<f32>,
+    },
+    /// Displaced by the network outputs `out` (N × 9) evaluated at time `t`.
+    Deformation {
+        /// Frame time.
+        t: f32,
+        /// Network outputs `[Δp, Δω, Δs]`.
+        out: Vec<f32>,
+    },
+}
+
+/// Packs anchor parameters into ODE states (quaternions normalised).
+fn pack_state(
+    means: &[Vec3<f32>],
+    log_scales: &[Vec3<f32>],
+    quats: &[Quat<f32>],
+    y: &mut Vec<f32>,
+) {
+    y.clear();
+    for i in 0..means.len() {
+        let q = quats[i].normalize();
+        y.extend_from_slice(&[means[i].x, means[i].y, means[i].z, q.w, q.x, q.y, q.z]);
+        y.extend_from_slice(&[log_scales[i].x, log_scales[i].y, log_scales[i].z]);
+    }
+}
+
+/// Gaussian `i` of an ODE state.
+fn unpack(y: &[f32], i: usize) -> (Vec3<f32>, Quat<f32>, Vec3<f32>) {
+    let s = &y[i * STATE_STRIDE..(i + 1) * STATE_STRIDE];
+    (
+        Vec3::from_slice(s),
+        Quat::from_slice(&s[3..]),
+        Vec3::from_slice(&s[7..]),
+    )
+}
+
+impl Model {
+    /// A stepper for the current number of Gaussians (rebuilt when the count changes).
+    fn stepper(&mut self, stepper: &mut Option<Stepper<f32>>) -> Stepper<f32> {
+        self.field.set_count(self.len());
+        match stepper.take() {
+            Some(s) if *s.layout() == self.field.layout() => s,
+            _ => Stepper::new(self.method, self.field.layout()),
+        }
+    }
+
+    /// The time grid from anchor `k` to `t`.
+    fn grid(&self, k: usize, t: f64) -> TimeGrid<f32> {
+        #[allow(clippy::cast_possible_truncation, reason = "f32 training")]
+        TimeGrid::with_max_step(self.anchor_times[k] as f32, t as f32, self.max_step as f32)
+    }
+
+    /// The anchor a frame at `t` starts from under the current waypoint mode.
+    #[must_use]
+    pub fn anchor_for(&self, t: f64) -> usize {
+        match self.waypoints {
+            Waypoints::Off => 0,
+            _ => super::anchor_for_time(&self.anchor_times, t),
+        }
+    }
+
+    /// Writes the Gaussians at time `t` into `out` and returns what the backward needs.
+    /// `stepper` caches the ODE stepper between calls.
+    pub fn splats_at(
+        &mut self,
+        t: f64,
+        stepper: &mut Option<Stepper<f32>>,
+        out: &mut Splats<f32>,
+    ) -> FrameTape {
+        out.clone_from(&self.canonical);
+        if !self.dynamics_active || self.motion == Motion::Static {
+            return FrameTape::Static;
+        }
+        #[allow(clippy::cast_possible_truncation, reason = "f32 training")]
+        let tf = t as f32;
+        let n = self.len();
+        match self.motion {
+            Motion::Velocity => {
+                let k = self.anchor_for(t);
+                let (m, s, q) = self.anchor_state(k);
+                let mut y0 = Vec::with_capacity(n * STATE_STRIDE);
+                pack_state(m, s, q, &mut y0);
+                let grid = self.grid(k, t);
+                let mut st = self.stepper(stepper);
+                let trajectory = integrate_trajectory(
+                    &mut self.field,
+                    &mut st,
+                    &grid,
+                    &y0,
+                    Checkpointing::StoreAll,
+                );
+                *stepper = Some(st);
+                let y = trajectory.final_state();
+                for i in 0..n {
+                    let (p, q, s) = unpack(y, i);
+                    out.means[i] = p;
+                    out.quats[i] = q;
+                    out.log_scales[i] = s;
+                }
+                FrameTape::Velocity {
+                    anchor: k,
+                    trajectory,
+                }
+            }
+            Motion::Deformation => {
+                let pos: Vec<f32> = self
+                    .canonical
+                    .means
+                    .iter()
+                    .flat_map(|v| v.to_array())
+                    .collect();
+                let mut net = vec![0.0; n * TANGENT];
+                self.field.eval_batch(tf, &pos, 3, n, &mut net);
+                for i in 0..n {
+                    let o = &net[i * TANGENT..];
+                    out.means[i] += Vec3::from_slice(o);
+                    out.quats[i] = exp_update_left(
+                        self.canonical.quats[i].normalize(),
+                        Vec3::from_slice(&o[3..]),
+                        1.0,
+                    );
+                    out.log_scales[i] += Vec3::from_slice(&o[6..]);
+                }
+                FrameTape::Deformation { t: tf, out: net }
+            }
+            Motion::Static => FrameTape::Static,
+        }
+    }
+
+    /// Accumulates into `grad` the gradient of a loss whose gradient with respect to the
+    /// Gaussians returned by [`splats_at`](Self::splats_at) is `d`.
+    pub fn backward_at(
+        &mut self,
+        tape: &FrameTape,
+        stepper: &mut Option<Stepper<f32>>,
+        d: &SplatsGrad<f32>,
+        grad: &mut ModelGrad,
+    ) {
+        let n = self.len();
+        let c = &mut grad.canonical;
+        for i in 0..n {
+            c.opacity_logits[i] += d.opacity_logits[i];
+        }
+        for (g, v) in c.sh.iter_mut().zip(&d.sh) {
+            for ch in 0..3 {
+                g[ch] += v[ch];
+            }
+        }
+        match tape {
+            FrameTape::Static => {
+                for i in 0..n {
+                    c.means[i] += d.means[i];
+                    c.log_scales[i] += d.log_scales[i];
+                    c.quats[i] = c.quats[i] + d.quats[i];
+                }
+            }
+            FrameTape::Velocity { anchor, trajectory } => {
+                let y = trajectory.final_state();
+                let mut d_final = vec![0.0_f32; n * TANGENT];
+                for i in 0..n {
+                    let (_, q, _) = unpack(y, i);
+                    let o = &mut d_final[i * TANGENT..(i + 1) * TANGENT];
+                    d.means[i].write_to(o);
+                    left_cotangent_from_ambient(q, d.quats[i]).write_to(&mut o[3..]);
+                    d.log_scales[i].write_to(&mut o[6..]);
+                }
+                self.adjoint_to_anchor(*anchor, trajectory, &d_final, stepper, grad);
+            }
+            FrameTape::Deformation { t, out } => {
+                let mut d_net = vec![0.0_f32; n * TANGENT];
+                for i in 0..n {
+                    let q0 = self.canonical.quats[i];
+                    let o = &out[i * TANGENT..];
+                    let g = exp_update_left_vjp(
+                        q0.normalize(),
+                        Vec3::from_slice(&o[3..]),
+                        1.0,
+                        d.quats[i],
+                    );
+                    let dn = &mut d_net[i * TANGENT..(i + 1) * TANGENT];
+                    d.means[i].write_to(dn);
+                    g.omega.write_to(&mut dn[3..]);
+                    d.log_scales[i].write_to(&mut dn[6..]);
+                    grad.canonical.means[i] += d.means[i];
+                    grad.canonical.log_scales[i] += d.log_scales[i];
+                    grad.canonical.quats[i] = grad.canonical.quats[i] + normalize_quat_vjp(q0, g.q);
+                }
+                let pos: Vec<f32> = self
+                    .canonical
+                    .means
+                    .iter()
+                    .flat_map(|v| v.to_array())
+                    .collect();
+                let mut d_pos = vec![0.0_f32; n * 3];
+                self.field
+                    .vjp_batch(*t, &pos, 3, n, &d_net, &mut d_pos, 3, &mut grad.field);
+                for i in 0..n {
+                    grad.canonical.means[i] += Vec3::from_slice(&d_pos[i * 3..]);
+                }
+            }
+        }
+    }
+
+    /// Runs the discrete adjoint of `trajectory` (integrated from anchor `k`) for the final
+    /// cotangent `d_final` and adds the anchor and field gradients into `grad`.
+    fn adjoint_to_anchor(
+        &mut self,
+        k: usize,
+        trajectory: &Trajectory<f32>,
+        d_final: &[f32],
+        stepper: &mut Option<Stepper<f32>>,
+        grad: &mut ModelGrad,
+    ) {
+        let n = self.len();
+        let mut d_y0 = vec![0.0_f32; n * TANGENT];
+        let mut st = self.stepper(stepper);
+        discrete_adjoint(
+            &mut self.field,
+            &mut st,
+            trajectory,
+            d_final,
+            &mut d_y0,
+            &mut grad.field,
+        );
+        *stepper = Some(st);
+        let y0 = trajectory.initial_state();
+        let raw: Vec<Quat<f32>> = self.anchor_state(k).2.to_vec();
+        let (gm, gs, gq) = grad.anchor_state_mut(k);
+        for i in 0..n {
+            let (_, q_hat, _) = unpack(y0, i);
+            let o = &d_y0[i * TANGENT..];
+            gm[i] += Vec3::from_slice(o);
+            gs[i] += Vec3::from_slice(&o[6..]);
+            let amb = ambient_from_left_cotangent(q_hat, Vec3::from_slice(&o[3..]));
+            gq[i] = gq[i] + normalize_quat_vjp(raw[i], amb);
+        }
+    }
+
+    /// The anchor loss of segment `k → k+1` (trainable waypoints):
+    /// `weight/N · Σ_i (|p_i − p̃_i|² + |s_i − s̃_i|² + |Log(q_i q̃_i*)|²)` between the state
+    /// integrated from anchor `k` to `τ_{k+1}` and anchor `k+1`'s state; gradients to both
+    /// anchors and the field. Returns the loss.
+    ///
+    /// # Panics
+    /// If `k + 1` is not an anchor.
+    pub fn anchor_loss(
+        &mut self,
+        k: usize,
+        weight: f64,
+        stepper: &mut Option<Stepper<f32>>,
+        grad: &mut ModelGrad,
+    ) -> f64 {
+        assert!(
+            k + 1 < self.anchor_times.len(),
+            "anchor loss needs a next anchor"
+        );
+        let n = self.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let (m, s, q) = self.anchor_state(k);
+        let mut y0 = Vec::with_capacity(n * STATE_STRIDE);
+        pack_state(m, s, q, &mut y0);
+        let grid = self.grid(k, self.anchor_times[k + 1]);
+        let mut st = self.stepper(stepper);
+        let trajectory = integrate_trajectory(
+            &mut self.field,
+            &mut st,
+            &grid,
+            &y0,
+            Checkpointing::StoreAll,
+        );
+        *stepper = Some(st);
+        let y = trajectory.final_state();
+        #[allow(
+            clippy::cast_precision_loss,
+            clippy::cast_possible_truncation,
+            reason = "f32 training"
+        )]
+        let w = (weight / n as f64) as f32;
+        let mut d_final = vec![0.0_f32; n * TANGENT];
+        let mut loss = 0.0_f64;
+        let target = &self.anchors[k];
+        let (gm, gs, gq) = {
+            let a = &mut grad.anchors[k];
+            (&mut a.means, &mut a.log_scales, &mut a.quats)
+        };
+        for i in 0..n {
+            let (p, q, s) = unpack(y, i);
+            let qa = target.quats[i].normalize();
+            let dp = p - target.means[i];
+            let ds = s - target.log_scales[i];
+            let delta = log_quat(q.mul_quat(qa.conj()));
+            loss += f64::from(dp.norm_squared() + ds.norm_squared() + delta.norm_squared());
+            let o = &mut d_final[i * TANGENT..(i + 1) * TANGENT];
+            (dp * (2.0 * w)).write_to(o);
+            (delta * (2.0 * w)).write_to(&mut o[3..]);
+            (ds * (2.0 * w)).write_to(&mut o[6..]);
+            gm[i] -= dp * (2.0 * w);
+            gs[i] -= ds * (2.0 * w);
+            // d|Log(q qa*)|²/d(left perturbation of qa) = −2δ.
+            let amb = ambient_from_left_cotangent(qa, delta * (-2.0 * w));
+            gq[i] = gq[i] + normalize_quat_vjp(target.quats[i], amb);
+        }
+        self.adjoint_to_anchor(k, &trajectory, &d_final, stepper, grad);
+        loss * weight / n as f64
+    }
+
+    /// Sets anchors `1..K` to the state integrated from anchor 0 (through each anchor in
+    /// turn): the initialisation of trainable anchors and the refresh of snapshot anchors.
+    pub fn refresh_anchors_from_start(&mut self, stepper: &mut Option<Stepper<f32>>) {
+        let n = self.len();
+        let mut y = Vec::with_capacity(n * STATE_STRIDE);
+        pack_state(
+            &self.canonical.means,
+            &self.canonical.log_scales,
+            &self.canonical.quats,
+            &mut y,
+        );
+        for k in 1..self.anchor_times.len() {
+            let grid = self.grid(k - 1, self.anchor_times[k]);
+            let mut st = self.stepper(stepper);
+            integrate(&mut self.field, &mut st, &grid, &mut y);
+            *stepper = Some(st);
+            let a = &mut self.anchors[k - 1];
+            a.means.resize(n, Vec3::zero());
+            a.log_scales.resize(n, Vec3::zero());
+            a.quats.resize(n, Quat::identity());
+            for i in 0..n {
+                let (p, q, s) = unpack(&y, i);
+                a.means[i] = p;
+                a.quats[i] = q;
+                a.log_scales[i] = s;
+            }
+        }
+    }
+}

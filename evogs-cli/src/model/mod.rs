@@ -1,0 +1,167 @@
+//! The dynamic scene model: canonical Gaussians, waypoint (anchor) states and the neural
+//! field, with the three dynamics modes (design.md section 3).
+//!
+//! - [`Motion::Velocity`] (EvoGS): the state `(p, R, s)` of every Gaussian evolves under
+//!   `d(p, R, s)/dt = (v, ω, ṡ)(p, t)`, integrated from the nearest anchor with an ODE
+//!   stepper (RK4 by default; R updated on the manifold, `R ← Exp(hω)R`).
+//! - [`Motion::Deformation`] (the 4DGS baseline): the same network, read as a displacement
+//!   of the canonical state: `p = p₀ + Δp`, `R = Exp(Δω)R₀`, `s = s₀ + Δs`.
+//! - [`Motion::Static`]: plain 3DGS.
+//!
+//! Opacity and SH colour are canonical (shared by all times). Anchor `0` is the canonical
+//! state itself; anchors `1..K` hold their own positions, log-scales and raw quaternions.
+
+pub mod anchors;
+pub mod dynamics;
+pub mod init;
+
+pub use anchors::{AnchorState, Waypoints, anchor_for_time};
+pub use dynamics::FrameTape;
+
+use crate::field::NeuralField;
+use evogs_math::{Quat, Vec3};
+use evogs_ode::Method;
+use evogs_splat::{Splats, SplatsGrad};
+
+/// How the Gaussians move.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Motion {
+    /// EvoGS: a learned velocity field integrated in time.
+    Velocity,
+    /// 4DGS-style: a learned displacement of the canonical state.
+    Deformation,
+    /// No motion (3DGS).
+    Static,
+}
+
+impl std::str::FromStr for Motion {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "velocity" => Ok(Self::Velocity),
+            "deformation" => Ok(Self::Deformation),
+            "static" => Ok(Self::Static),
+            _ => Err(format!(
+                "unknown motion `{s}` (velocity, deformation, static)"
+            )),
+        }
+    }
+}
+
+/// The trainable scene.
+#[derive(Debug)]
+pub struct Model {
+    /// Canonical Gaussians (anchor 0's state, opacity and colour for every time).
+    pub canonical: Splats<f32>,
+    /// Anchor times `τ_0 < τ_1 < …` (`τ_0` is the canonical time).
+    pub anchor_times: Vec<f64>,
+    /// States of anchors `1..K` (index `k − 1`).
+    pub anchors: Vec<AnchorState>,
+    /// The neural field (used by velocity and deformation motion).
+    pub field: NeuralField<f32>,
+    /// Dynamics mode.
+    pub motion: Motion,
+    /// Waypoint mode.
+    pub waypoints: Waypoints,
+    /// ODE method (velocity motion).
+    pub method: Method,
+    /// Largest ODE step (velocity motion).
+    pub max_step: f64,
+    /// Whether the dynamics are switched on (off during the static warm-up).
+    pub dynamics_active: bool,
+}
+
+/// Borrowed positions, log-scales and raw quaternions of one anchor.
+pub type StateRef<'a> = (&'a [Vec3<f32>], &'a [Vec3<f32>], &'a [Quat<f32>]);
+/// Mutably borrowed positions, log-scales and raw quaternions of one anchor.
+pub type StateMut<'a> = (
+    &'a mut [Vec3<f32>],
+    &'a mut [Vec3<f32>],
+    &'a mut [Quat<f32>],
+);
+
+/// Gradients of every trainable part of a [`Model`] (same shapes).
+#[derive(Clone, Debug)]
+pub struct ModelGrad {
+    /// Canonical Gaussians.
+    pub canonical: SplatsGrad<f32>,
+    /// Anchors `1..K`.
+    pub anchors: Vec<AnchorState>,
+    /// Field parameters.
+    pub field: Vec<f32>,
+}
+
+impl Model {
+    /// Number of Gaussians.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.canonical.len()
+    }
+
+    /// `true` if there are no Gaussians.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.canonical.is_empty()
+    }
+
+    /// A zero gradient shaped like the model.
+    #[must_use]
+    pub fn zero_grad(&self) -> ModelGrad {
+        ModelGrad {
+            canonical: self.canonical.zeros_like(),
+            anchors: self.anchors.iter().map(AnchorState::zeros_like).collect(),
+            field: vec![0.0; self.field.params().len()],
+        }
+    }
+
+    /// The state of anchor `k` (0 = canonical): positions, log-scales, raw quaternions.
+    #[must_use]
+    pub fn anchor_state(&self, k: usize) -> StateRef<'_> {
+        if k == 0 {
+            (
+                &self.canonical.means,
+                &self.canonical.log_scales,
+                &self.canonical.quats,
+            )
+        } else {
+            let a = &self.anchors[k - 1];
+            (&a.means, &a.log_scales, &a.quats)
+        }
+    }
+}
+
+impl ModelGrad {
+    /// Sets every entry to zero.
+    pub fn fill_zero(&mut self) {
+        self.canonical.fill_zero();
+        for a in &mut self.anchors {
+            a.fill_zero();
+        }
+        self.field.fill(0.0);
+    }
+
+    /// The gradient slots of anchor `k` (0 = canonical).
+    pub fn anchor_state_mut(&mut self, k: usize) -> StateMut<'_> {
+        if k == 0 {
+            let c = &mut self.canonical;
+            (&mut c.means, &mut c.log_scales, &mut c.quats)
+        } else {
+            let a = &mut self.anchors[k - 1];
+            (&mut a.means, &mut a.log_scales, &mut a.quats)
+        }
+    }
+
+    /// `true` if every entry is finite.
+    #[must_use]
+    pub fn is_finite(&self) -> bool {
+        let c = &self.canonical;
+        c.means.iter().all(|v| v.is_finite())
+            && c.log_scales.iter().all(|v| v.is_finite())
+            && c.quats.iter().all(|q| q.is_finite())
+            && c.opacity_logits.iter().all(|v| v.is_finite())
+            && c.sh.iter().flatten().all(|v| v.is_finite())
+            && self.anchors.iter().all(AnchorState::is_finite)
+            && self.field.iter().all(|v| v.is_finite())
+    }
+}

@@ -1,0 +1,279 @@
+//! The trainable Gaussian parameters [`Splats`] (struct of arrays) and their gradient
+//! [`SplatsGrad`], with the benchmark scene of the performance notes.
+//!
+//! Parameters are the **raw** training parameters; the activations are applied when the
+//! Gaussians are projected and shaded:
+//!
+//! ```text
+//! mean μ (world)              used as is
+//! log-scale ŝ                 s = exp(ŝ)              Σ = R(q/|q|) diag(s)² R(q/|q|)ᵀ
+//! raw quaternion q (w,x,y,z)  normalised when used    (gradients are orthogonal to q)
+//! opacity logit ô             o = sigmoid(ô)
+//! SH coefficients k_j (RGB)   colour = max(0, Σ_j Y_j(d̂) k_j + ½),  j < (degree + 1)², DC first
+//! ```
+
+use crate::camera::PinholeCamera;
+use alloc::vec;
+use alloc::vec::Vec;
+use evogs_math::activation::logit;
+use evogs_math::rng::SplitMix64;
+use evogs_math::sh::{MAX_SH_DEGREE, SH_C0, sh_coeff_count};
+use evogs_math::{Quat, Real, Vec3};
+
+/// A set of Gaussians as struct of arrays, in their raw training parameterisation.
+///
+/// Gaussian `i` owns `means[i]`, `log_scales[i]`, `quats[i]`, `opacity_logits[i]` and the
+/// `(sh_degree + 1)²` RGB coefficient triples `sh[i·K .. (i+1)·K]` (DC first, in the order
+/// of the 3DGS `.ply` files and gsplat). All vectors must have consistent lengths
+/// ([`Splats::check`]).
+///
+/// ```
+/// use evogs_splat::Splats;
+/// use evogs_math::{Quat, Vec3};
+/// let mut s = Splats::<f64>::new(1);
+/// s.push(Vec3::zero(), Vec3::splat(-3.0), Quat::identity(), 0.0, &[[0.1, 0.2, 0.3]; 4]);
+/// assert_eq!(s.len(), 1);
+/// assert_eq!(s.sh_coeffs(0).len(), 4);
+/// ```
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Splats<T> {
+    /// Storage SH degree (0 to 3): `(sh_degree + 1)²` coefficients per Gaussian.
+    pub sh_degree: usize,
+    /// World-space means.
+    pub means: Vec<Vec3<T>>,
+    /// Log standard deviations along the local axes.
+    pub log_scales: Vec<Vec3<T>>,
+    /// Raw quaternions (w, x, y, z), not necessarily unit.
+    pub quats: Vec<Quat<T>>,
+    /// Opacity logits.
+    pub opacity_logits: Vec<T>,
+    /// SH coefficients, `(sh_degree + 1)²` RGB triples per Gaussian, DC first.
+    pub sh: Vec<[T; 3]>,
+}
+
+/// Gradient of a loss with respect to every field of [`Splats`] (same layout).
+pub type SplatsGrad<T> = Splats<T>;
+
+impl<T: Real> Splats<T> {
+    /// An empty set with storage SH degree `sh_degree`.
+    ///
+    /// # Panics
+    /// If `sh_degree > 3`.
+    #[must_use]
+    pub fn new(sh_degree: usize) -> Self {
+        assert!(sh_degree <= MAX_SH_DEGREE, "SH degree {sh_degree} > 3");
+        Self {
+            sh_degree,
+            ..Self::default()
+        }
+    }
+
+    /// `n` Gaussians with every parameter zero (the layout of a gradient).
+    ///
+    /// # Panics
+    /// If `sh_degree > 3`.
+    #[must_use]
+    pub fn zeros(n: usize, sh_degree: usize) -> Self {
+        assert!(sh_degree <= MAX_SH_DEGREE, "SH degree {sh_degree} > 3");
+        Self {
+            sh_degree,
+            means: vec![Vec3::zero(); n],
+            log_scales: vec![Vec3::zero(); n],
+            quats: vec![Quat::zero(); n],
+            opacity_logits: vec![T::ZERO; n],
+            sh: vec![[T::ZERO; 3]; n * sh_coeff_count(sh_degree)],
+        }
+    }
+
+    /// A zero gradient shaped like `self`.
+    #[must_use]
+    pub fn zeros_like(&self) -> Self {
+        Self::zeros(self.len(), self.sh_degree)
+    }
+
+    /// Sets every entry to zero, keeping the length.
+    pub fn fill_zero(&mut self) {
+        self.means.fill(Vec3::zero());
+        self.log_scales.fill(Vec3::zero());
+        self.quats.fill(Quat::zero());
+        self.opacity_logits.fill(T::ZERO);
+        self.sh.fill([T::ZERO; 3]);
+    }
+
+    /// Number of Gaussians.
+    #[inline]
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.means.len()
+    }
+
+    /// `true` if there are no Gaussians.
+    #[inline]
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.means.is_empty()
+    }
+
+    /// SH coefficients per Gaussian, `(sh_degree + 1)²`.
+    #[inline]
+    #[must_use]
+    pub const fn coeffs_per_gaussian(&self) -> usize {
+        sh_coeff_count(self.sh_degree)
+    }
+
+    /// The SH coefficients of Gaussian `i`.
+    #[inline]
+    #[must_use]
+    pub fn sh_coeffs(&self, i: usize) -> &[[T; 3]] {
+        let k = self.coeffs_per_gaussian();
+        &self.sh[i * k..(i + 1) * k]
+    }
+
+    /// The SH coefficients of Gaussian `i`, mutable.
+    #[inline]
+    pub fn sh_coeffs_mut(&mut self, i: usize) -> &mut [[T; 3]] {
+        let k = self.coeffs_per_gaussian();
+        &mut self.sh[i * k..(i + 1) * k]
+    }
+
+    /// Appends a Gaussian; `sh` must hold at least `(sh_degree + 1)²` triples (extra ones are
+    /// ignored).
+    ///
+    /// # Panics
+    /// If `sh` is too short.
+    pub fn push(
+        &mut self,
+        mean: Vec3<T>,
+        log_scale: Vec3<T>,
+        quat: Quat<T>,
+        opacity_logit: T,
+        sh: &[[T; 3]],
+    ) {
+        let k = self.coeffs_per_gaussian();
+        assert!(sh.len() >= k, "need {k} SH triples, got {}", sh.len());
+        self.means.push(mean);
+        self.log_scales.push(log_scale);
+        self.quats.push(quat);
+        self.opacity_logits.push(opacity_logit);
+        self.sh.extend_from_slice(&sh[..k]);
+    }
+
+    /// `true` if every vector has the length implied by [`len`](Self::len) and the degree is
+    /// at most 3.
+    #[must_use]
+    pub fn check(&self) -> bool {
+        let n = self.len();
+        self.sh_degree <= MAX_SH_DEGREE
+            && self.log_scales.len() == n
+            && self.quats.len() == n
+            && self.opacity_logits.len() == n
+            && self.sh.len() == n * self.coeffs_per_gaussian()
+    }
+
+    /// Number of scalars in the flat layout of [`write_flat`](Self::write_flat).
+    #[must_use]
+    pub fn flat_len(&self) -> usize {
+        self.len() * 11 + self.sh.len() * 3
+    }
+
+    /// Writes every parameter into one flat vector (cleared first), in blocks: means (3 per
+    /// Gaussian), log-scales (3), quaternions (w, x, y, z), opacity logits (1), SH
+    /// coefficients (3 per triple). A [`SplatsGrad`] uses the same layout, so analytic and
+    /// numerical gradients compare entry by entry.
+    pub fn write_flat(&self, out: &mut Vec<T>) {
+        out.clear();
+        out.reserve(self.flat_len());
+        out.extend(self.means.iter().flat_map(|v| v.to_array()));
+        out.extend(self.log_scales.iter().flat_map(|v| v.to_array()));
+        out.extend(self.quats.iter().flat_map(|q| q.to_array()));
+        out.extend_from_slice(&self.opacity_logits);
+        out.extend(self.sh.iter().flatten());
+    }
+
+    /// Reads every parameter back from the layout of [`write_flat`](Self::write_flat).
+    ///
+    /// # Panics
+    /// If `flat.len() != self.flat_len()`.
+    pub fn read_flat(&mut self, flat: &[T]) {
+        assert_eq!(flat.len(), self.flat_len(), "flat parameter length");
+        let n = self.len();
+        let (m, rest) = flat.split_at(3 * n);
+        let (s, rest) = rest.split_at(3 * n);
+        let (q, rest) = rest.split_at(4 * n);
+        let (o, sh) = rest.split_at(n);
+        for i in 0..n {
+            self.means[i] = Vec3::from_slice(&m[3 * i..]);
+            self.log_scales[i] = Vec3::from_slice(&s[3 * i..]);
+            self.quats[i] = Quat::from_slice(&q[4 * i..]);
+        }
+        self.opacity_logits.copy_from_slice(o);
+        for (d, c) in self.sh.iter_mut().zip(sh.chunks_exact(3)) {
+            *d = [c[0], c[1], c[2]];
+        }
+    }
+
+    /// Converts the scalar type (through `f64`).
+    #[must_use]
+    pub fn cast<U: Real>(&self) -> Splats<U> {
+        let c = |v: T| U::from_f64(v.to_f64());
+        Splats {
+            sh_degree: self.sh_degree,
+            means: self.means.iter().map(|v| v.cast()).collect(),
+            log_scales: self.log_scales.iter().map(|v| v.cast()).collect(),
+            quats: self.quats.iter().map(|q| q.cast()).collect(),
+            opacity_logits: self.opacity_logits.iter().map(|&v| c(v)).collect(),
+            sh: self.sh.iter().map(|t| t.map(c)).collect(),
+        }
+    }
+}
+
+/// The benchmark scene of the performance notes: `n` Gaussians uniform in the cube
+/// `[−0.5, 0.5]³`, log-uniform scales in `[0.01, 0.03]`, opacities uniform in `[0.5, 0.9]`,
+/// random unit quaternions, SH degree 3 (random DC colour, higher coefficients ~ N(0, 0.05²));
+/// the camera at distance 4 on the +z axis looking at the origin, 40° horizontal field of
+/// view, `size × size` pixels. Seeded and deterministic.
+///
+/// # Panics
+/// If `size` is zero.
+#[must_use]
+pub fn benchmark_scene<T: Real>(n: usize, size: usize, seed: u64) -> (Splats<T>, PinholeCamera<T>) {
+    let mut rng = SplitMix64::new(seed);
+    let mut s = Splats::new(3);
+    let (lo, hi) = (Real::ln(0.01_f64), Real::ln(0.03_f64));
+    let mut sh = [[T::ZERO; 3]; 16];
+    for _ in 0..n {
+        let mean = Vec3::new(
+            rng.uniform(-0.5, 0.5),
+            rng.uniform(-0.5, 0.5),
+            rng.uniform(-0.5, 0.5),
+        );
+        let ls = Vec3::new(
+            rng.uniform(lo, hi),
+            rng.uniform(lo, hi),
+            rng.uniform(lo, hi),
+        );
+        let q = Quat::new(rng.normal(), rng.normal(), rng.normal(), rng.normal()).normalize();
+        let op = logit(rng.uniform(0.5, 0.9));
+        for (k, c) in sh.iter_mut().enumerate() {
+            for ch in c.iter_mut() {
+                let v = if k == 0 {
+                    (rng.uniform(0.0, 1.0) - 0.5) / SH_C0
+                } else {
+                    0.05 * rng.normal()
+                };
+                *ch = T::from_f64(v);
+            }
+        }
+        s.push(mean.cast(), ls.cast(), q.cast(), T::from_f64(op), &sh);
+    }
+    let cam = PinholeCamera::look_at(
+        Vec3::new(0.0, 0.0, 4.0),
+        Vec3::zero(),
+        Vec3::new(0.0, 1.0, 0.0),
+        40.0_f64.to_radians(),
+        size,
+        size,
+    )
+    .expect("benchmark camera is valid for a non-empty image");
+    (s, cam)
+}

@@ -1,0 +1,169 @@
+//! The pinhole camera: D-NeRF (OpenGL camera-to-world) conversion, look-at, view matrices,
+//! validation errors.
+
+use evogs_math::Vec3;
+use evogs_splat::{CameraError, PinholeCamera};
+
+/// Frame `r_000` of the project's `toys-mini/transforms_train.json` (D-NeRF format).
+const C2W: [[f64; 4]; 4] = [
+    [
+        0.9649090365464632,
+        -0.18419193761510935,
+        0.18714668393687264,
+        0.7485867357474906,
+    ],
+    [
+        0.2625843696623545,
+        0.6768432762862256,
+        -0.6877009729200272,
+        -2.7508038916801087,
+    ],
+    [
+        -0.0,
+        0.7127106772482923,
+        0.7014581174498449,
+        2.8058324697993795,
+    ],
+    [0.0, 0.0, 0.0, 1.0],
+];
+const FOV_X: f64 = 0.8726646259971648;
+
+#[test]
+fn dnerf_conversion_flips_y_and_z_then_inverts() {
+    let cam = PinholeCamera::<f64>::from_dnerf(C2W, FOV_X, 200, 200).expect("valid frame");
+    let col = |j: usize| Vec3::new(C2W[0][j], C2W[1][j], C2W[2][j]);
+    // The centre is the translation column.
+    assert!((cam.center() - col(3)).norm() < 1e-12, "centre");
+    // Camera axes in the world: x = col0, y (down) = −col1, z (forward) = −col2.
+    for (axis, want) in [(0, col(0)), (1, -col(1)), (2, -col(2))] {
+        assert!(
+            (cam.rotation.row(axis) - want).norm() < 1e-12,
+            "axis {axis}"
+        );
+    }
+    // This rig looks at the origin: it projects to the principal point, in front.
+    let p = cam.world_to_camera(Vec3::zero());
+    assert!(
+        p.z > 3.0 && (p.x / p.z).abs() < 1e-6 && (p.y / p.z).abs() < 1e-6,
+        "origin on the optical axis: {p:?}"
+    );
+    // fx = W / (2 tan(fov/2)), principal point at the centre, gsplat clip planes.
+    assert!(
+        (cam.fx - 100.0 / (0.5 * FOV_X).tan()).abs() < 1e-9 && (cam.fx - cam.fy).abs() < 1e-15,
+        "focal"
+    );
+    assert!(
+        (cam.cx - 100.0).abs() < 1e-15
+            && (cam.cy - 100.0).abs() < 1e-15
+            && (cam.near - 0.01).abs() < 1e-15
+            && (cam.far - 1e10).abs() < 1.0,
+        "centre and clip"
+    );
+    // World +z (up in Blender) points up in the image (negative v) for this camera.
+    let up = cam.world_to_camera(Vec3::new(0.0, 0.0, 0.5));
+    assert!(up.y < 0.0, "world up is image up");
+}
+
+#[test]
+fn dnerf_conversion_agrees_with_look_at() {
+    let eye = Vec3::new(1.5, -2.0, 2.5);
+    let up = Vec3::new(0.0, 0.0, 1.0);
+    // OpenGL c2w of a camera at `eye` looking at the origin: x right, y up, z backward.
+    let back = eye * (1.0 / eye.norm());
+    let right = up.cross(back) * (1.0 / up.cross(back).norm());
+    let cam_up = back.cross(right);
+    let c2w = [
+        [right.x, cam_up.x, back.x, eye.x],
+        [right.y, cam_up.y, back.y, eye.y],
+        [right.z, cam_up.z, back.z, eye.z],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let a = PinholeCamera::<f64>::from_dnerf(c2w, 0.7, 64, 48).expect("dnerf");
+    let b = PinholeCamera::<f64>::look_at(eye, Vec3::zero(), up, 0.7, 64, 48).expect("look_at");
+    assert!((a.rotation - b.rotation).max_abs() < 1e-14, "rotation");
+    assert!(
+        (a.translation - b.translation).norm() < 1e-14,
+        "translation"
+    );
+    assert!(
+        (a.fx - b.fx).abs() < 1e-12 && (a.cy - 24.0).abs() < 1e-15,
+        "intrinsics"
+    );
+}
+
+#[test]
+fn view_matrix_round_trip_and_cast() {
+    let cam = PinholeCamera::<f64>::from_dnerf(C2W, FOV_X, 200, 160).expect("valid");
+    let k = [
+        [cam.fx, 0.0, cam.cx],
+        [0.0, cam.fy, cam.cy],
+        [0.0, 0.0, 1.0],
+    ];
+    let back =
+        PinholeCamera::from_viewmat(cam.viewmat(), k, 200, 160, cam.near, cam.far).expect("rigid");
+    assert_eq!(back, cam, "viewmat round trip");
+    let c32 = cam.cast::<f32>();
+    assert!(
+        (f64::from(c32.fx) - cam.fx).abs() < 1e-4 && c32.width == 200,
+        "cast"
+    );
+}
+
+#[test]
+fn invalid_cameras_are_typed_errors() {
+    let bad = |c2w: [[f64; 4]; 4], fov: f64, w: usize| {
+        PinholeCamera::<f64>::from_dnerf(c2w, fov, w, 100).err()
+    };
+    let mut nan = C2W;
+    nan[1][2] = f64::NAN;
+    assert_eq!(bad(nan, FOV_X, 100), Some(CameraError::NonFinite));
+    let mut scaled = C2W;
+    for row in scaled.iter_mut().take(3) {
+        row[0] *= 1.1;
+    }
+    assert_eq!(bad(scaled, FOV_X, 100), Some(CameraError::NotRigid));
+    let mut mirrored = C2W;
+    for row in mirrored.iter_mut().take(3) {
+        row[0] = -row[0];
+    }
+    assert_eq!(
+        bad(mirrored, FOV_X, 100),
+        Some(CameraError::NotRigid),
+        "det −1"
+    );
+    let mut bottom = C2W;
+    bottom[3][0] = 0.5;
+    assert_eq!(bad(bottom, FOV_X, 100), Some(CameraError::NotRigid));
+    assert_eq!(bad(C2W, 0.0, 100), Some(CameraError::BadIntrinsics));
+    assert_eq!(bad(C2W, 3.2, 100), Some(CameraError::BadIntrinsics));
+    assert_eq!(bad(C2W, f64::NAN, 100), Some(CameraError::NonFinite));
+    assert_eq!(bad(C2W, FOV_X, 0), Some(CameraError::EmptyImage));
+    let id = [
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let k = [[50.0, 0.0, 32.0], [0.0, 50.0, 24.0], [0.0, 0.0, 1.0]];
+    assert_eq!(
+        PinholeCamera::from_viewmat(id, k, 64, 48, 1.0, 0.5).err(),
+        Some(CameraError::BadClipRange)
+    );
+    let k0 = [[0.0, 0.0, 32.0], [0.0, 50.0, 24.0], [0.0, 0.0, 1.0]];
+    assert_eq!(
+        PinholeCamera::from_viewmat(id, k0, 64, 48, 0.01, 10.0).err(),
+        Some(CameraError::BadIntrinsics)
+    );
+    let z = Vec3::zero();
+    let up = Vec3::new(0.0, 1.0, 0.0);
+    assert_eq!(
+        PinholeCamera::<f64>::look_at(z, z, up, 0.7, 8, 8).err(),
+        Some(CameraError::DegenerateLookAt)
+    );
+    assert_eq!(
+        PinholeCamera::<f64>::look_at(Vec3::new(0.0, 3.0, 0.0), z, up, 0.7, 8, 8).err(),
+        Some(CameraError::DegenerateLookAt),
+        "up parallel to the view"
+    );
+    assert!(!format!("{}", CameraError::NotRigid).is_empty(), "Display");
+}
