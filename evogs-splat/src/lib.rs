@@ -10,8 +10,10 @@ compile_error!(
 
 extern crate alloc;
 
+pub mod binning;
 pub mod camera;
 pub mod color;
+pub mod fast_exp;
 pub mod gaussians;
 mod image;
 pub mod loss;
@@ -21,9 +23,13 @@ pub mod project;
 pub mod project_vjp;
 pub mod raster_ref;
 pub mod raster_ref_vjp;
+pub mod raster_tiled;
+pub mod raster_tiled_vjp;
 pub mod render;
 pub mod ssim;
+pub mod tile_lanes;
 
+pub use binning::{Binning, Rect, TILE_SIZE, TileGrid};
 pub use camera::{CameraError, CameraGrad, PinholeCamera};
 pub use color::{sh_color, sh_color_vjp};
 pub use gaussians::{Splats, SplatsGrad, benchmark_scene};
@@ -36,4 +42,9 @@ pub use project::{ProjectOptions, Projected, RadiusMode, project};
 pub use project_vjp::{ProjectInputGrad, ProjectedGrad, project_vjp};
 pub use raster_ref::{RasterOutput, SplatHit, rasterize_ref, splat_alpha, splat_alpha_cut};
 pub use raster_ref_vjp::{PixelGrad, rasterize_ref_vjp};
-pub use render::{Render, RenderGrad, render, render_vjp};
+pub use raster_tiled::{ExpMode, TiledRasterizer, rasterize_tiled};
+pub use raster_tiled_vjp::{DensifyStats, rasterize_tiled_vjp};
+pub use render::{
+    Render, RenderGrad, render, render_tiled, render_tiled_into, render_tiled_vjp,
+    render_tiled_vjp_into, render_vjp,
+};

@@ -1,6 +1,9 @@
-//! The full differentiable chain with the reference rasterizer: [`render`] =
-//! [`preprocess`] + [`rasterize_ref`], and [`render_vjp`] =
-//! [`rasterize_ref_vjp`] + [`preprocess_vjp`].
+//! The full differentiable chain: [`render`] = [`preprocess`] + [`rasterize_ref`] and
+//! [`render_vjp`] = [`rasterize_ref_vjp`] + [`preprocess_vjp`] with the reference rasterizer;
+//! [`render_tiled`] / [`render_tiled_vjp`] the same chain through the fast
+//! [`TiledRasterizer`] (same results: bitwise images in `f64`, gradients up to the order of
+//! the sums over pixels). Training uses the tiled pair; the reference pair is the
+//! obviously-correct baseline.
 //!
 //! ```text
 //! Splats (μ, ŝ, q, ô, SH) ──project──▶ means2d, depth, conic, ρ ─┐
@@ -11,9 +14,13 @@
 
 use crate::camera::{CameraGrad, PinholeCamera};
 use crate::gaussians::{Splats, SplatsGrad};
-use crate::preprocess::{Preprocessed, RasterInputGrad, RenderOptions, preprocess, preprocess_vjp};
+use crate::preprocess::{
+    Preprocessed, RasterInputGrad, RenderOptions, preprocess, preprocess_into, preprocess_vjp,
+};
 use crate::raster_ref::{RasterOutput, rasterize_ref};
 use crate::raster_ref_vjp::{PixelGrad, rasterize_ref_vjp};
+use crate::raster_tiled::TiledRasterizer;
+use crate::raster_tiled_vjp::DensifyStats;
 use evogs_math::Real;
 
 /// The result of [`render`]: the preprocessed Gaussians and the rasterizer output.
@@ -36,6 +43,8 @@ pub struct RenderGrad<T> {
     pub raster: RasterInputGrad<T>,
     /// `∂L/∂background`.
     pub background: [T; 3],
+    /// This view's densification statistics (2D-mean gradient norms in pixels, radii).
+    pub densify: DensifyStats<T>,
 }
 
 /// Renders `splats` with `camera` through the reference rasterizer.
@@ -87,10 +96,132 @@ pub fn render_vjp<T: Real>(
     let background = rasterize_ref_vjp(&fwd.pre, opts.background, &fwd.raster, d, &mut raster);
     let mut grad = splats.zeros_like();
     let camera_grad = preprocess_vjp(splats, camera, opts, &fwd.pre, &raster, &mut grad);
+    let densify = DensifyStats::from_grad(&fwd.pre, &raster);
     RenderGrad {
         splats: grad,
         camera: camera_grad,
         raster,
         background,
+        densify,
     }
+}
+
+/// [`render`] through the tiled rasterizer `rast` (its work memory is reused; `opts.par`
+/// parallelises both the preprocessing and the tiles).
+///
+/// # Panics
+/// If `splats` is inconsistent ([`Splats::check`]).
+///
+/// ```
+/// use evogs_splat::{benchmark_scene, render, render_tiled, RenderOptions, TiledRasterizer};
+/// let (splats, cam) = benchmark_scene::<f64>(200, 24, 1);
+/// let opts = RenderOptions::default();
+/// let fast = render_tiled(&splats, &cam, &opts, &mut TiledRasterizer::new());
+/// assert!(fast == render(&splats, &cam, &opts));
+/// ```
+#[must_use]
+pub fn render_tiled<T: Real>(
+    splats: &Splats<T>,
+    camera: &PinholeCamera<T>,
+    opts: &RenderOptions<T>,
+    rast: &mut TiledRasterizer<T>,
+) -> Render<T> {
+    let mut out = Render {
+        pre: Preprocessed::default(),
+        raster: RasterOutput::new(camera.width, camera.height, opts.background),
+    };
+    render_tiled_into(splats, camera, opts, rast, &mut out);
+    out
+}
+
+/// [`render_tiled`] into an existing [`Render`] (buffers reused: the allocation-free form of
+/// a training loop).
+///
+/// # Panics
+/// If `splats` is inconsistent ([`Splats::check`]).
+pub fn render_tiled_into<T: Real>(
+    splats: &Splats<T>,
+    camera: &PinholeCamera<T>,
+    opts: &RenderOptions<T>,
+    rast: &mut TiledRasterizer<T>,
+    out: &mut Render<T>,
+) {
+    preprocess_into(splats, camera, opts, &mut out.pre);
+    rast.forward_into(&out.pre, opts.background, opts.par, &mut out.raster);
+}
+
+/// [`render_vjp`] through the tiled rasterizer: `fwd` must come from [`render_tiled`] with
+/// the same arguments (and a rasterizer with the same [`ExpMode`](crate::ExpMode)).
+///
+/// # Panics
+/// If the shapes disagree.
+///
+/// ```
+/// use evogs_splat::{benchmark_scene, render_tiled, render_tiled_vjp, PixelGrad, RenderOptions, TiledRasterizer};
+/// let (splats, cam) = benchmark_scene::<f32>(50, 12, 2);
+/// let opts = RenderOptions::default();
+/// let mut rast = TiledRasterizer::new();
+/// let fwd = render_tiled(&splats, &cam, &opts, &mut rast);
+/// let d_rgb = vec![1.0; 12 * 12 * 3];
+/// let d = PixelGrad { rgb: &d_rgb, alpha: None, depth: None };
+/// let g = render_tiled_vjp(&splats, &cam, &opts, &mut rast, &fwd, &d);
+/// assert_eq!(g.densify.radius.len(), 50);
+/// ```
+#[must_use]
+pub fn render_tiled_vjp<T: Real>(
+    splats: &Splats<T>,
+    camera: &PinholeCamera<T>,
+    opts: &RenderOptions<T>,
+    rast: &mut TiledRasterizer<T>,
+    fwd: &Render<T>,
+    d: &PixelGrad<'_, T>,
+) -> RenderGrad<T> {
+    let mut grad = RenderGrad {
+        splats: splats.zeros_like(),
+        camera: CameraGrad::zero(),
+        raster: RasterInputGrad::zeros(splats.len()),
+        background: [T::ZERO; 3],
+        densify: DensifyStats::default(),
+    };
+    render_tiled_vjp_into(splats, camera, opts, rast, fwd, d, &mut grad);
+    grad
+}
+
+/// [`render_tiled_vjp`] into an existing [`RenderGrad`], which is **overwritten** (buffers
+/// reused, resized if the Gaussian count changed).
+///
+/// # Panics
+/// If the shapes disagree.
+pub fn render_tiled_vjp_into<T: Real>(
+    splats: &Splats<T>,
+    camera: &PinholeCamera<T>,
+    opts: &RenderOptions<T>,
+    rast: &mut TiledRasterizer<T>,
+    fwd: &Render<T>,
+    d: &PixelGrad<'_, T>,
+    grad: &mut RenderGrad<T>,
+) {
+    grad.raster.reset(splats.len());
+    grad.background = rast.backward(
+        &fwd.pre,
+        opts.background,
+        &fwd.raster,
+        d,
+        opts.par,
+        &mut grad.raster,
+        &mut grad.densify,
+    );
+    if grad.splats.len() == splats.len() && grad.splats.sh_degree == splats.sh_degree {
+        grad.splats.fill_zero();
+    } else {
+        grad.splats = splats.zeros_like();
+    }
+    grad.camera = preprocess_vjp(
+        splats,
+        camera,
+        opts,
+        &fwd.pre,
+        &grad.raster,
+        &mut grad.splats,
+    );
 }
