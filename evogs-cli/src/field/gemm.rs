@@ -25,7 +25,7 @@ pub type MatRef<'a, T> = (&'a [T], usize, usize, usize, usize);
 const THIN: usize = 5;
 
 /// A scalar with a general matrix-multiply kernel: `C ← α·A·B + β·C`.
-pub trait Gemm: Real + nalgebra::RealField {
+pub trait Gemm: Real {
     /// `C ← alpha·A·B + beta·C` with `A` m×k, `B` k×n and `C` m×n given as strided views.
     ///
     /// # Panics
@@ -36,43 +36,74 @@ pub trait Gemm: Real + nalgebra::RealField {
         b: MatRef<'_, Self>,
         beta: Self,
         c: (&mut [Self], usize, usize, usize, usize),
-    ) {
-        let (ad, am, ak, ars, acs) = a;
-        let (bd, bk, bn, brs, bcs) = b;
-        let (cd, cm, cn, crs, ccs) = c;
-        assert!(
-            am == cm && bn == cn && ak == bk,
-            "gemm: shapes {am}x{ak} · {bk}x{bn} -> {cm}x{cn}"
-        );
-        if cm == 0 || cn == 0 {
-            return;
-        }
-        if cm <= THIN || cn <= THIN || ak <= THIN {
-            for i in 0..cm {
-                for j in 0..cn {
-                    let mut s = Self::ZERO;
-                    for l in 0..ak {
-                        s += ad[i * ars + l * acs] * bd[l * brs + j * bcs];
-                    }
-                    let c = &mut cd[i * crs + j * ccs];
-                    *c = if beta == Self::ZERO {
-                        alpha * s
-                    } else {
-                        alpha * s + beta * *c
-                    };
+    );
+}
+
+/// The one implementation behind both scalar types.
+fn gemm_impl<T: Real + nalgebra::RealField>(
+    alpha: T,
+    a: MatRef<'_, T>,
+    b: MatRef<'_, T>,
+    beta: T,
+    c: (&mut [T], usize, usize, usize, usize),
+) {
+    let (ad, am, ak, ars, acs) = a;
+    let (bd, bk, bn, brs, bcs) = b;
+    let (cd, cm, cn, crs, ccs) = c;
+    assert!(
+        am == cm && bn == cn && ak == bk,
+        "gemm: shapes {am}x{ak} · {bk}x{bn} -> {cm}x{cn}"
+    );
+    if cm == 0 || cn == 0 {
+        return;
+    }
+    let zero = <T as Real>::ZERO;
+    if cm <= THIN || cn <= THIN || ak <= THIN {
+        for i in 0..cm {
+            for j in 0..cn {
+                let mut s = zero;
+                for l in 0..ak {
+                    s += ad[i * ars + l * acs] * bd[l * brs + j * bcs];
                 }
+                let c = &mut cd[i * crs + j * ccs];
+                *c = if beta == zero {
+                    alpha * s
+                } else {
+                    alpha * s + beta * *c
+                };
             }
-            return;
         }
-        let av = DMatrixView::from_slice_with_strides(ad, am, ak, ars, acs);
-        let bv = DMatrixView::from_slice_with_strides(bd, bk, bn, brs, bcs);
-        let mut cv = DMatrixViewMut::from_slice_with_strides_mut(cd, cm, cn, crs, ccs);
-        cv.gemm(alpha, &av, &bv, beta);
+        return;
+    }
+    let av = DMatrixView::from_slice_with_strides(ad, am, ak, ars, acs);
+    let bv = DMatrixView::from_slice_with_strides(bd, bk, bn, brs, bcs);
+    let mut cv = DMatrixViewMut::from_slice_with_strides_mut(cd, cm, cn, crs, ccs);
+    cv.gemm(alpha, &av, &bv, beta);
+}
+
+impl Gemm for f32 {
+    fn gemm(
+        alpha: Self,
+        a: MatRef<'_, Self>,
+        b: MatRef<'_, Self>,
+        beta: Self,
+        c: (&mut [Self], usize, usize, usize, usize),
+    ) {
+        gemm_impl(alpha, a, b, beta, c);
     }
 }
 
-impl Gemm for f32 {}
-impl Gemm for f64 {}
+impl Gemm for f64 {
+    fn gemm(
+        alpha: Self,
+        a: MatRef<'_, Self>,
+        b: MatRef<'_, Self>,
+        beta: Self,
+        c: (&mut [Self], usize, usize, usize, usize),
+    ) {
+        gemm_impl(alpha, a, b, beta, c);
+    }
+}
 
 /// A row-major `rows × cols` operand.
 #[must_use]
