@@ -1,2 +1,260 @@
-//! The evogs binary.
-fn main() {}
+//! The `evogs` command line: a thin clap front end over `evogs_cli::app`.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use evogs_cli::app::Reporter;
+use evogs_cli::app::evaluate::{evaluate_run, parse_range};
+use evogs_cli::app::export::export;
+use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
+use evogs_cli::app::train::{TrainArgs, train};
+use evogs_cli::config::Protocol;
+use evogs_cli::data::SplitName;
+use evogs_cli::model::Motion;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+
+/// EvoGS on the CPU: 4D Gaussian splatting as a learned dynamical system.
+#[derive(Parser, Debug)]
+#[command(name = "evogs", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Train a dynamic scene (default: the shipped toys-mini scene) and end with test metrics
+    /// and a GIF.
+    Train {
+        /// D-NeRF dataset folder (default: data/toys-mini shipped with evogs).
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Run folder (config, checkpoints, log, curve, metrics, renders).
+        #[arg(long, default_value = "runs/latest")]
+        out: PathBuf,
+        /// TOML file overlaid on the preset (any subset of the fields of RUN/config.toml).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Preset: fast (default, sized for 2 CPU cores) or paper (method.md's numbers).
+        #[arg(long)]
+        preset: Option<String>,
+        /// Dynamics: velocity (EvoGS, default), deformation (4DGS-style) or static (3DGS).
+        #[arg(long)]
+        motion: Option<Motion>,
+        /// Training protocol: full, sparse, future or backward.
+        #[arg(long)]
+        protocol: Option<Protocol>,
+        /// Stride of the sparse protocol (every k-th distinct training time).
+        #[arg(long)]
+        stride: Option<usize>,
+        /// Split time of the future/backward protocols.
+        #[arg(long)]
+        split_time: Option<f64>,
+        /// Total iterations (warm-up included).
+        #[arg(long)]
+        iters: Option<u64>,
+        /// Random seed.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Continue from RUN/checkpoint.bin (with --iters to extend the run).
+        #[arg(long)]
+        resume: bool,
+    },
+    /// Evaluate a run: PSNR and SSIM per frame and mean -> RUN/metrics-<split>.json.
+    Eval {
+        /// Run folder.
+        #[arg(long)]
+        run: PathBuf,
+        /// Split: test, val, train or future.
+        #[arg(long, default_value = "test")]
+        split: SplitName,
+        /// Only frames with time in A:B.
+        #[arg(long)]
+        time_range: Option<String>,
+        /// Dataset folder (default: the run's).
+        #[arg(long)]
+        data: Option<PathBuf>,
+    },
+    /// Render PNG frames at any times (also beyond [0, 1] and negative) and a GIF.
+    Render {
+        /// Run folder.
+        #[arg(long)]
+        run: PathBuf,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Times A:B:N (N frames from A to B).
+        #[arg(long, default_value = "0:1:40")]
+        times: String,
+        /// Cameras: orbit or test.
+        #[arg(long, default_value = "orbit")]
+        camera: CameraPath,
+        /// Also write OUT/render.gif.
+        #[arg(long)]
+        gif: bool,
+        /// Dataset folder (default: the run's).
+        #[arg(long)]
+        data: Option<PathBuf>,
+    },
+    /// Export the Gaussians at time T as a standard 3DGS .ply.
+    Export {
+        /// Run folder.
+        #[arg(long)]
+        run: PathBuf,
+        /// Time.
+        #[arg(long)]
+        time: f64,
+        /// Output .ply file.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+/// Progress bars and messages on the terminal.
+struct Terminal {
+    bar: Option<ProgressBar>,
+}
+
+impl Reporter for Terminal {
+    fn start(&mut self, phase: &str, total: u64) {
+        let bar = ProgressBar::new(total);
+        bar.set_style(
+            ProgressStyle::with_template("{prefix:>14} [{bar:30}] {pos}/{len} {msg} (eta {eta})")
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
+        bar.set_prefix(phase.to_string());
+        self.bar = Some(bar);
+    }
+    fn progress(&mut self, done: u64, message: &str) {
+        if let Some(b) = &self.bar {
+            b.set_position(done);
+            if !message.is_empty() {
+                b.set_message(message.to_string());
+            }
+        }
+    }
+    fn finish(&mut self) {
+        if let Some(b) = self.bar.take() {
+            b.finish();
+        }
+    }
+    fn info(&mut self, message: &str) {
+        match &self.bar {
+            Some(b) => b.println(message),
+            None => eprintln!("{message}"),
+        }
+    }
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    let mut term = Terminal { bar: None };
+    match cli.cmd {
+        Cmd::Train {
+            data,
+            out,
+            config,
+            preset,
+            motion,
+            protocol,
+            stride,
+            split_time,
+            iters,
+            seed,
+            resume,
+        } => {
+            let args = TrainArgs {
+                data,
+                out,
+                config,
+                preset,
+                motion,
+                protocol,
+                stride,
+                split_time,
+                iters,
+                seed,
+                resume,
+                skip_outputs: false,
+            };
+            let o = train(&args, &mut term)?;
+            println!("run: {}", o.run.dir.display());
+            println!(
+                "trained {} iterations in {:.1} s ({:.3} s/iteration), {} Gaussians",
+                o.iterations,
+                o.seconds,
+                o.seconds / o.iterations.max(1) as f64,
+                o.gaussians
+            );
+            if let Some(m) = &o.test {
+                println!(
+                    "test: PSNR {:.2} dB, SSIM {:.4} over {} frames -> {}",
+                    m.psnr,
+                    m.ssim,
+                    m.frames.len(),
+                    o.run.metrics("test").display()
+                );
+            }
+            if let Some(g) = &o.gif {
+                println!("gif: {}", g.display());
+            }
+        }
+        Cmd::Eval {
+            run,
+            split,
+            time_range,
+            data,
+        } => {
+            let range = time_range
+                .as_deref()
+                .map(parse_range)
+                .transpose()
+                .map_err(anyhow::Error::msg)?;
+            let (m, path) = evaluate_run(&run, split, range, data.as_deref(), &mut term)?;
+            println!("{:>10} {:>8} {:>8}", "time", "PSNR", "SSIM");
+            for f in &m.frames {
+                println!("{:>10.4} {:>8.2} {:>8.4}", f.time, f.psnr, f.ssim);
+            }
+            println!(
+                "{:>10} {:>8.2} {:>8.4}   ({} frames) -> {}",
+                "mean",
+                m.psnr,
+                m.ssim,
+                m.frames.len(),
+                path.display()
+            );
+        }
+        Cmd::Render {
+            run,
+            out,
+            times,
+            camera,
+            gif,
+            data,
+        } => {
+            let times = parse_times(&times).map_err(anyhow::Error::msg)?;
+            let o = render_sequence(
+                &RenderArgs {
+                    run,
+                    out,
+                    times,
+                    camera,
+                    gif,
+                    data,
+                },
+                None,
+                &mut term,
+            )?;
+            println!("{} frames written", o.frames.len());
+            if let Some(g) = o.gif {
+                println!("gif: {}", g.display());
+            }
+        }
+        Cmd::Export { run, time, out } => {
+            let n = export(&run, time, &out)?;
+            println!("{n} Gaussians at t = {time} -> {}", out.display());
+        }
+    }
+    Ok(())
+}

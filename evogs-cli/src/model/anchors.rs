@@ -72,12 +72,9 @@ impl<T: Real> AnchorState<T> {
     }
     /// Keeps the Gaussians flagged in `keep`.
     pub fn retain(&mut self, keep: &[bool]) {
-        let mut it = keep.iter();
-        self.means.retain(|_| *it.next().unwrap_or(&false));
-        let mut it = keep.iter();
-        self.log_scales.retain(|_| *it.next().unwrap_or(&false));
-        let mut it = keep.iter();
-        self.quats.retain(|_| *it.next().unwrap_or(&false));
+        crate::train::adam::retain_items(&mut self.means, keep, 1);
+        crate::train::adam::retain_items(&mut self.log_scales, keep, 1);
+        crate::train::adam::retain_items(&mut self.quats, keep, 1);
     }
 }
 

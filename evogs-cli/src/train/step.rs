@@ -60,6 +60,8 @@ pub struct StepLosses {
     pub l1: f64,
     /// SSIM of the render.
     pub ssim: f64,
+    /// Mean squared error of the render (for the training PSNR).
+    pub mse: f64,
     /// Weighted plane regularisers.
     pub planes: f64,
     /// Weighted coherence.
@@ -159,9 +161,11 @@ pub fn loss_and_grad<T: Gemm>(
         },
     );
     model.backward_at(&tape, &mut ws.stepper, &g.splats, grad);
+    let mse = evogs_splat::metrics::mse(&fwd.raster.rgb, &view.image).to_f64();
     let mut losses = StepLosses {
         l1: photo.l1.to_f64(),
         ssim: photo.ssim.to_f64(),
+        mse,
         ..StepLosses::default()
     };
     losses.total = photo.total.to_f64();
@@ -184,10 +188,11 @@ pub fn loss_and_grad<T: Gemm>(
     {
         losses.coherence = coherence_term(model, view.time, s, grad);
     }
-    if dynamic && model.motion == Motion::Velocity && model.waypoints == Waypoints::Trainable {
-        if let Some(k) = s.anchor_segment {
-            losses.anchor = model.anchor_loss(k, s.lambda_anchor, &mut ws.stepper, grad);
-        }
+    if let (true, Some(k)) = (
+        dynamic && model.motion == Motion::Velocity && model.waypoints == Waypoints::Trainable,
+        s.anchor_segment,
+    ) {
+        losses.anchor = model.anchor_loss(k, s.lambda_anchor, &mut ws.stepper, grad);
     }
     losses.total += losses.planes + losses.coherence + losses.anchor;
     let stats = ScreenStats {
