@@ -114,7 +114,9 @@ fn bad_inputs_name_the_file_and_the_problem() {
     );
 
     let d = scene_copy("badtime");
-    edit_json(&d, |v| v["frames"][2]["time"] = serde_json::json!(1.5));
+    edit_json(&d, |v| {
+        v["frames"][2]["time"] = serde_json::json!(1.5);
+    });
     let e = load(&d).expect_err("time outside [0, 1]");
     assert!(e.contains("frame 2") && e.contains("outside [0, 1]"), "{e}");
 
@@ -125,7 +127,7 @@ fn bad_inputs_name_the_file_and_the_problem() {
             [0.0, 0.0, 0.0, 0.0],
             [0.0, 0.0, 0.0, 0.0],
             [0.0, 0.0, 0.0, 1.0]
-        ])
+        ]);
     });
     let ds = load(&d).expect("a zero matrix parses");
     let e = training_views(&ds.train, &[0]).expect_err("non-rigid camera");
