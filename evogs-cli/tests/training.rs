@@ -31,7 +31,10 @@ fn tiny_config() -> TrainConfig {
     c
 }
 
-fn data(c: &TrainConfig) -> (Vec<ViewData<f32>>, Vec<[f32; 3]>, Vec<[f32; 3]>) {
+/// Training views, point positions and point colours.
+type Data = (Vec<ViewData<f32>>, Vec<[f32; 3]>, Vec<[f32; 3]>);
+
+fn data(c: &TrainConfig) -> Data {
     let ds = Dataset::load(
         &shipped_scene(),
         &LoadOptions {
