@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use evogs_cli::app::Reporter;
 use evogs_cli::app::evaluate::{evaluate_run, parse_range};
 use evogs_cli::app::export::export;
+use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
 use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
 use evogs_cli::app::train::{TrainArgs, train};
 use evogs_cli::config::Protocol;
@@ -90,6 +91,34 @@ enum Cmd {
         #[arg(long, default_value = "orbit")]
         camera: CameraPath,
         /// Also write OUT/render.gif.
+        #[arg(long)]
+        gif: bool,
+        /// Dataset folder (default: the run's).
+        #[arg(long)]
+        data: Option<PathBuf>,
+    },
+    /// Edit the motion: inside a mask, replace the learned velocity by an injected field
+    /// (rigid rotation or translation) and render the result.
+    Inject {
+        /// Run folder (velocity motion).
+        #[arg(long)]
+        run: PathBuf,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Mask: sphere:CX,CY,CZ,R or box:X0,Y0,Z0,X1,Y1,Z1, optionally ",soft=W".
+        #[arg(long)]
+        mask: String,
+        /// Field: rotate:AX,AY,AZ,RATE[,CX,CY,CZ] (rad per unit time) or translate:UX,UY,UZ.
+        #[arg(long)]
+        field: String,
+        /// Times A:B:N.
+        #[arg(long, default_value = "0:1:40")]
+        times: String,
+        /// Cameras: orbit or test.
+        #[arg(long, default_value = "orbit")]
+        camera: CameraPath,
+        /// Also write OUT/inject.gif.
         #[arg(long)]
         gif: bool,
         /// Dataset folder (default: the run's).
@@ -250,6 +279,29 @@ fn main() -> Result<()> {
             if let Some(g) = o.gif {
                 println!("gif: {}", g.display());
             }
+        }
+        Cmd::Inject {
+            run,
+            out,
+            mask,
+            field,
+            times,
+            camera,
+            gif,
+            data,
+        } => {
+            let args = InjectArgs {
+                run,
+                out,
+                mask: parse_mask(&mask).map_err(anyhow::Error::msg)?,
+                field: parse_field(&field).map_err(anyhow::Error::msg)?,
+                times: parse_times(&times).map_err(anyhow::Error::msg)?,
+                camera,
+                gif,
+                data,
+            };
+            let frames = inject(&args, &mut term)?;
+            println!("{} frames written to {}", frames.len(), args.out.display());
         }
         Cmd::Export { run, time, out } => {
             let n = export(&run, time, &out)?;

@@ -4,6 +4,7 @@
 
 pub mod evaluate;
 pub mod export;
+pub mod inject;
 pub mod paths;
 pub mod plot;
 pub mod render;

@@ -122,6 +122,17 @@ pub fn orbit_cameras(
         .collect()
 }
 
+/// The point the orbit turns around: the Gaussians' mean position, on the ground (z = 0) of
+/// the z-up D-NeRF world.
+#[must_use]
+pub fn orbit_center(model: &Model<f32>) -> Vec3<f64> {
+    let c = &model.canonical.means;
+    #[allow(clippy::cast_precision_loss, reason = "counts")]
+    let k = c.len().max(1) as f64;
+    let m = c.iter().fold(Vec3::zero(), |s, v| s + v.cast::<f64>()) * (1.0 / k);
+    Vec3::new(m.x, m.y, 0.0)
+}
+
 /// Renders the frames (using an already loaded model and dataset when given).
 ///
 /// # Errors
@@ -149,12 +160,7 @@ pub fn render_sequence(
     };
     let background = [1.0, 1.0, 1.0];
     let (a, b, n) = args.times;
-    let center: Vec3<f64> = {
-        let c = &model.canonical.means;
-        #[allow(clippy::cast_precision_loss, reason = "counts")]
-        let k = c.len().max(1) as f64;
-        c.iter().fold(Vec3::zero(), |s, v| s + v.cast()) * (1.0 / k)
-    };
+    let center = orbit_center(model);
     let cams = match args.camera {
         CameraPath::Orbit => {
             orbit_cameras(ds, Vec3::new(center.x, center.y, 0.0), n).map_err(CommandError)?

@@ -91,6 +91,32 @@ impl<T: Gemm> Model<T> {
         )
     }
 
+    /// The ODE state `[p, q̂, s]` per Gaussian of anchor `k`.
+    #[must_use]
+    pub fn initial_state(&self, k: usize) -> Vec<T> {
+        let (m, s, q) = self.anchor_state(k);
+        let mut y = Vec::with_capacity(self.len() * STATE_STRIDE);
+        pack_state(m, s, q, &mut y);
+        y
+    }
+
+    /// The time grid of a frame at `t` integrated from anchor `k`.
+    #[must_use]
+    pub fn grid_to(&self, k: usize, t: f64) -> TimeGrid<T> {
+        self.grid(k, t)
+    }
+
+    /// The Gaussians of an ODE state (opacity and colour from the canonical ones).
+    pub fn splats_from_state(&self, y: &[T], out: &mut Splats<T>) {
+        out.clone_from(&self.canonical);
+        for i in 0..self.len() {
+            let (p, q, s) = unpack(y, i);
+            out.means[i] = p;
+            out.quats[i] = q;
+            out.log_scales[i] = s;
+        }
+    }
+
     /// The anchor a frame at `t` starts from under the current waypoint mode.
     #[must_use]
     pub fn anchor_for(&self, t: f64) -> usize {
