@@ -11,3 +11,4 @@ pub mod field;
 pub mod model;
 pub mod run;
 pub mod train;
+pub mod verify;

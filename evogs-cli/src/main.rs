@@ -10,6 +10,7 @@ use evogs_cli::app::train::{TrainArgs, train};
 use evogs_cli::config::Protocol;
 use evogs_cli::data::SplitName;
 use evogs_cli::model::Motion;
+use evogs_cli::verify::{LEGEND, verify_file};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
@@ -95,6 +96,13 @@ enum Cmd {
         /// Dataset folder (default: the run's).
         #[arg(long)]
         data: Option<PathBuf>,
+    },
+    /// Recompute reference-vector files (projection, raster, ode, so3, metrics) in f64 and
+    /// print, per file, every quantity's largest error against its tolerance.
+    Verify {
+        /// Reference files (JSON); the kind is recognised from the content.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
     },
     /// Export the Gaussians at time T as a standard 3DGS .ply.
     Export {
@@ -254,6 +262,30 @@ fn main() -> Result<()> {
         Cmd::Export { run, time, out } => {
             let n = export(&run, time, &out)?;
             println!("{n} Gaussians at t = {time} -> {}", out.display());
+        }
+        Cmd::Verify { files } => {
+            let mut bad = 0_usize;
+            println!("{LEGEND}\n");
+            for f in &files {
+                match verify_file(f) {
+                    Ok(r) => {
+                        println!("{r}\n");
+                        bad += usize::from(!r.passed());
+                    }
+                    Err(e) => {
+                        eprintln!("error: {e}\n");
+                        bad += 1;
+                    }
+                }
+            }
+            println!(
+                "verify: {} of {} files passed",
+                files.len() - bad,
+                files.len()
+            );
+            if bad > 0 {
+                std::process::exit(1);
+            }
         }
     }
     Ok(())
