@@ -13,7 +13,9 @@
 
 use super::json::{Node, Res, bools_as_ints};
 use super::report::{Row, Rule, Tally, index_name};
-use super::scene::{camera, camera_grads, flat3, flat4, masked, masked_name, scale_grads, splats};
+use super::scene::{
+    camera, camera_grads, case_name, flat3, flat4, masked, masked_name, scale_grads, splats,
+};
 use evogs_math::Vec2;
 use evogs_math::covariance::covariance;
 use evogs_splat::{
@@ -274,10 +276,7 @@ pub(crate) fn verify(root: &Node<'_>) -> Res<(usize, Vec<Row>)> {
     let s = splats(&inputs)?;
     let n = s.len();
     let c = Setup {
-        name: match case.opt("name") {
-            Some(v) => v.str()?.to_string(),
-            None => "case".to_string(),
-        },
+        name: case_name(&case)?,
         cam: camera(&inputs)?,
         op: inputs.get("opacities")?.nums(&[n])?,
         eps2d: inputs.get("eps2d")?.f64()?,

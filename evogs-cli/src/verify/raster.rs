@@ -16,7 +16,8 @@ use super::decisions::{Decisions, decisions};
 use super::json::{Malformed, Node, Res, bools_as_ints};
 use super::report::{Row, Rule, Tally, index_name};
 use super::scene::{
-    camera, camera_grads, flat3, flat4, masked, masked_name, opacity_grads, scale_grads, splats,
+    camera, camera_grads, case_name, flat3, flat4, masked, masked_name, opacity_grads, scale_grads,
+    splats,
 };
 use evogs_math::activation::sigmoid;
 use evogs_splat::{
@@ -71,10 +72,7 @@ fn setup(case: &Node<'_>) -> Res<Setup> {
     };
     let fwd = render(&s, &cam, &opts);
     Ok(Setup {
-        name: match case.opt("name") {
-            Some(v) => v.str()?.to_string(),
-            None => "case".to_string(),
-        },
+        name: case_name(case)?,
         cam,
         s,
         opts,

@@ -278,15 +278,7 @@ impl Tally {
         name: &dyn Fn(usize) -> String,
     ) {
         let k = self.slot(quantity, rule);
-        if mine.len() != reference.len() {
-            self.fail_at(
-                k,
-                format!(
-                    "{case}: {} values computed, {} in the file",
-                    mine.len(),
-                    reference.len()
-                ),
-            );
+        if self.length_mismatch(k, case, mine.len(), reference.len()) {
             return;
         }
         let row = &mut self.rows[k];
@@ -345,15 +337,7 @@ impl Tally {
         name: &dyn Fn(usize) -> String,
     ) {
         let k = self.slot(quantity, Rule::Exact);
-        if mine.len() != reference.len() {
-            self.fail_at(
-                k,
-                format!(
-                    "{case}: {} values computed, {} in the file",
-                    mine.len(),
-                    reference.len()
-                ),
-            );
+        if self.length_mismatch(k, case, mine.len(), reference.len()) {
             return;
         }
         let row = &mut self.rows[k];
@@ -379,6 +363,18 @@ impl Tally {
                 .to_string();
             row.detail = format!("{first} ({} mismatches)", row.max_rel);
         }
+    }
+
+    /// Fails row `k` if the computed and reference lengths differ.
+    fn length_mismatch(&mut self, k: usize, case: &str, mine: usize, reference: usize) -> bool {
+        if mine == reference {
+            return false;
+        }
+        self.fail_at(
+            k,
+            format!("{case}: {mine} values computed, {reference} in the file"),
+        );
+        true
     }
 
     /// A quantity that could not be recomputed.

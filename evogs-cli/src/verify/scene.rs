@@ -7,6 +7,14 @@ use evogs_math::activation::{logit, sigmoid};
 use evogs_math::{Quat, Vec3};
 use evogs_splat::{CameraGrad, PinholeCamera, Splats};
 
+/// `case.name`, or `case` if the file has none.
+pub(crate) fn case_name(case: &Node<'_>) -> Res<String> {
+    Ok(match case.opt("name") {
+        Some(v) => v.str()?.to_string(),
+        None => "case".to_string(),
+    })
+}
+
 /// The camera of `case.inputs` (`viewmat`, `K`, size, near and far planes).
 pub(crate) fn camera(inputs: &Node<'_>) -> Res<PinholeCamera<f64>> {
     let vm = inputs.get("viewmat")?;

@@ -133,7 +133,9 @@ impl fmt::Display for GradTable {
         let failed = self.rows.iter().filter(|r| !r.passed).count();
         write!(
             f,
-            "{}: {} groups, {failed} failed (dot test: relative, tolerance {DOT_TOL:.0e})",
+            "{}: {} groups, {failed} failed (max rel = max |a − n|/max(|a|, |n|) over every \
+             entry, large only where |g| is tiny and the absolute tolerance governs; dot \
+             test: relative, tolerance {DOT_TOL:.0e})",
             if self.passed() { "PASS" } else { "FAIL" },
             self.rows.len()
         )

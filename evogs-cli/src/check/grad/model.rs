@@ -11,7 +11,6 @@ use super::scene::{
     step_loss_and_grad,
 };
 use super::{GradRow, check_fn, uniform};
-use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use crate::model::{Model, ModelGrad, Motion};
 use crate::train::step::StepLosses;
 use core::cell::RefCell;
@@ -30,35 +29,20 @@ fn with_nonzero(mut row: GradRow, analytic_nonzero: bool) -> GradRow {
     row
 }
 
-/// Positions and every parameter of a small field, through `eval`/`vjp` on Gaussian states.
+/// Positions and every parameter of the scene's field, through `eval`/`vjp` on Gaussian
+/// states (positions inside the field's box).
 fn neural_field_row() -> GradRow {
-    let cfg = NeuralFieldConfig {
-        hexplane: HexPlaneConfig {
-            channels: 3,
-            resolution: [4, 3, 5, 4],
-            multires: vec![1, 2],
-        },
-        width: 8,
-        output_scales: [10.0, 1.0, 1.0],
-    };
-    let time = TimeMapping::Normalized {
-        t_min: 0.0,
-        t_max: 1.0,
-    };
-    let mut f = NeuralField::new(&cfg, [-1.0, -1.5, -0.5], [1.0, 1.0, 1.5], time, 7);
+    let mut f = grad_scene(Motion::Velocity, 11).model.field;
     let mut rng = SplitMix64::new(11);
-    for v in f.params_mut() {
-        *v += rng.uniform(-0.2, 0.2);
-    }
     let n = 5;
     f.set_count(n);
     let np = f.n_params();
     let mut x: Vec<f64> = (0..n)
         .flat_map(|_| {
             [
-                rng.uniform(-0.9, 0.9),
-                rng.uniform(-1.4, 0.9),
-                rng.uniform(-0.4, 1.4),
+                rng.uniform(-0.7, 0.7),
+                rng.uniform(-0.7, 0.7),
+                rng.uniform(-0.7, 0.7),
             ]
         })
         .collect();

@@ -413,6 +413,18 @@ fn render_chain(mode: RasterMode, seed: u64) -> RenderChain {
     panic!("no render scene away from the thresholds in 1000 attempts");
 }
 
+/// The projection of a point `[mean, log-scale, quaternion, …]` (opacity 0.7).
+fn project_point(x: &[f64], cam: &PinholeCamera<f64>) -> evogs_splat::Projected<f64> {
+    project(
+        Vec3::from_slice(x),
+        Vec3::from_slice(&x[3..]),
+        Quat::from_slice(&x[6..]),
+        0.7,
+        cam,
+        &popts(),
+    )
+}
+
 pub(super) fn rows() -> Vec<GradRow> {
     let mut rng = SplitMix64::new(0x7370_6c61);
     let cam = camera(64, 48);
@@ -440,28 +452,16 @@ pub(super) fn rows() -> Vec<GradRow> {
             x
         })
         .find(|x| {
-            let p = project(
-                Vec3::from_slice(x),
-                Vec3::from_slice(&x[3..]),
-                Quat::from_slice(&x[6..]),
-                0.7,
-                &cam,
-                &popts(),
-            );
+            let p = project_point(x, &cam);
             p.valid && p.fov_clamped[0]
         })
         .expect("a valid Gaussian beyond the FOV clamp");
     proj.push(clamped);
     for x in &proj {
-        let p = project(
-            Vec3::from_slice(x),
-            Vec3::from_slice(&x[3..]),
-            Quat::from_slice(&x[6..]),
-            0.7,
-            &cam,
-            &popts(),
+        assert!(
+            project_point(x, &cam).valid,
+            "check-grad projection points are valid"
         );
-        assert!(p.valid, "check-grad projection points are valid");
     }
     let sh: Vec<Vec<f64>> = (0..3)
         .map(|_| {
