@@ -4,6 +4,7 @@
 //! rendering, motion editing and verification, and the `evogs` command line.
 
 pub mod app;
+pub mod check;
 pub mod config;
 pub mod data;
 pub mod eval;
@@ -11,3 +12,4 @@ pub mod field;
 pub mod model;
 pub mod run;
 pub mod train;
+pub mod verify;

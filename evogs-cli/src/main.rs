@@ -8,9 +8,13 @@ use evogs_cli::app::export::export;
 use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
 use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
 use evogs_cli::app::train::{TrainArgs, train};
+use evogs_cli::check::grad::check_grad;
+use evogs_cli::check::order::{Expect, check_order};
 use evogs_cli::config::Protocol;
 use evogs_cli::data::SplitName;
 use evogs_cli::model::Motion;
+use evogs_cli::verify::{LEGEND, verify_file};
+use evogs_ode::Method;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
@@ -125,6 +129,27 @@ enum Cmd {
         #[arg(long)]
         data: Option<PathBuf>,
     },
+    /// Recompute reference-vector files (projection, raster, ode, so3, metrics) in f64 and
+    /// print, per file, every quantity's largest error against its tolerance.
+    Verify {
+        /// Reference files (JSON); the kind is recognised from the content.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Measure the convergence order of every stepper on the ODE test problems: error table
+    /// over the step sequence and the fitted order.
+    CheckOrder {
+        /// Only this stepper (euler, midpoint, heun, rk4, rk38).
+        #[arg(long)]
+        stepper: Option<Method>,
+        /// Only this problem (logistic, cos-growth, harmonic-oscillator, rotating-decay,
+        /// so3-constant-rate, problem-k, symmetric-top, asymmetric-top).
+        #[arg(long)]
+        problem: Option<String>,
+    },
+    /// Check every VJP of the stack and the end-to-end training step against central
+    /// differences in f64; print the worst errors per group.
+    CheckGrad,
     /// Export the Gaussians at time T as a standard 3DGS .ply.
     Export {
         /// Run folder.
@@ -306,6 +331,74 @@ fn main() -> Result<()> {
         Cmd::Export { run, time, out } => {
             let n = export(&run, time, &out)?;
             println!("{n} Gaussians at t = {time} -> {}", out.display());
+        }
+        Cmd::CheckOrder { stepper, problem } => {
+            let results = check_order(stepper, problem.as_deref())?;
+            for r in &results {
+                println!("{r}");
+            }
+            let failed = results.iter().filter(|r| !r.passed).count();
+            println!("check-order summary:");
+            for r in &results {
+                let fit = match (&r.study.estimate, r.expect) {
+                    (_, Expect::Exact) => "exact".to_string(),
+                    (Some(e), _) => format!("{:.3}", e.order),
+                    (None, _) => "none".to_string(),
+                };
+                let nominal = match r.expect {
+                    Expect::Exact => "exact".to_string(),
+                    Expect::Order(p) => p.to_string(),
+                };
+                println!(
+                    "  {:<20} {:<9} nominal {:<5} fitted {:<6} {}",
+                    r.study.problem,
+                    r.study.method,
+                    nominal,
+                    fit,
+                    if r.passed { "pass" } else { "FAIL" }
+                );
+            }
+            println!(
+                "check-order: {} of {} studies passed",
+                results.len() - failed,
+                results.len()
+            );
+            if failed > 0 {
+                std::process::exit(1);
+            }
+        }
+        Cmd::CheckGrad => {
+            let start = std::time::Instant::now();
+            let table = check_grad(usize::MAX);
+            println!("{table}");
+            println!("({:.1} s)", start.elapsed().as_secs_f64());
+            if !table.passed() {
+                std::process::exit(1);
+            }
+        }
+        Cmd::Verify { files } => {
+            let mut bad = 0_usize;
+            println!("{LEGEND}\n");
+            for f in &files {
+                match verify_file(f) {
+                    Ok(r) => {
+                        println!("{r}\n");
+                        bad += usize::from(!r.passed());
+                    }
+                    Err(e) => {
+                        eprintln!("error: {e}\n");
+                        bad += 1;
+                    }
+                }
+            }
+            println!(
+                "verify: {} of {} files passed",
+                files.len() - bad,
+                files.len()
+            );
+            if bad > 0 {
+                std::process::exit(1);
+            }
         }
     }
     Ok(())
