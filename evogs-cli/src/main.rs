@@ -1,2 +1,405 @@
-//! The evogs binary.
-fn main() {}
+//! The `evogs` command line: a thin clap front end over `evogs_cli::app`.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use evogs_cli::app::Reporter;
+use evogs_cli::app::evaluate::{evaluate_run, parse_range};
+use evogs_cli::app::export::export;
+use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
+use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
+use evogs_cli::app::train::{TrainArgs, train};
+use evogs_cli::check::grad::check_grad;
+use evogs_cli::check::order::{Expect, check_order};
+use evogs_cli::config::Protocol;
+use evogs_cli::data::SplitName;
+use evogs_cli::model::Motion;
+use evogs_cli::verify::{LEGEND, verify_file};
+use evogs_ode::Method;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+
+/// EvoGS on the CPU: 4D Gaussian splatting as a learned dynamical system.
+#[derive(Parser, Debug)]
+#[command(name = "evogs", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Train a dynamic scene (default: the shipped toys-mini scene) and end with test metrics
+    /// and a GIF.
+    Train {
+        /// D-NeRF dataset folder (default: data/toys-mini shipped with evogs).
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Run folder (config, checkpoints, log, curve, metrics, renders).
+        #[arg(long, default_value = "runs/latest")]
+        out: PathBuf,
+        /// TOML file overlaid on the preset (any subset of the fields of RUN/config.toml).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Preset: fast (default, sized for 2 CPU cores) or paper (method.md's numbers).
+        #[arg(long)]
+        preset: Option<String>,
+        /// Dynamics: velocity (EvoGS, default), deformation (4DGS-style) or static (3DGS).
+        #[arg(long)]
+        motion: Option<Motion>,
+        /// Training protocol: full, sparse, future or backward.
+        #[arg(long)]
+        protocol: Option<Protocol>,
+        /// Stride of the sparse protocol (every k-th distinct training time).
+        #[arg(long)]
+        stride: Option<usize>,
+        /// Split time of the future/backward protocols.
+        #[arg(long)]
+        split_time: Option<f64>,
+        /// Total iterations (warm-up included).
+        #[arg(long)]
+        iters: Option<u64>,
+        /// Random seed.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Continue from RUN/checkpoint.bin (with --iters to extend the run).
+        #[arg(long)]
+        resume: bool,
+    },
+    /// Evaluate a run: PSNR and SSIM per frame and mean -> RUN/metrics-<split>.json.
+    Eval {
+        /// Run folder.
+        #[arg(long)]
+        run: PathBuf,
+        /// Split: test, val, train or future.
+        #[arg(long, default_value = "test")]
+        split: SplitName,
+        /// Only frames with time in A:B.
+        #[arg(long)]
+        time_range: Option<String>,
+        /// Dataset folder (default: the run's).
+        #[arg(long)]
+        data: Option<PathBuf>,
+    },
+    /// Render PNG frames at any times (also beyond [0, 1] and negative) and a GIF.
+    Render {
+        /// Run folder.
+        #[arg(long)]
+        run: PathBuf,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Times A:B:N (N frames from A to B).
+        #[arg(long, default_value = "0:1:40")]
+        times: String,
+        /// Cameras: orbit or test.
+        #[arg(long, default_value = "orbit")]
+        camera: CameraPath,
+        /// Also write OUT/render.gif.
+        #[arg(long)]
+        gif: bool,
+        /// Dataset folder (default: the run's).
+        #[arg(long)]
+        data: Option<PathBuf>,
+    },
+    /// Edit the motion: inside a mask, replace the learned velocity by an injected field
+    /// (rigid rotation or translation) and render the result.
+    Inject {
+        /// Run folder (velocity motion).
+        #[arg(long)]
+        run: PathBuf,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Mask: sphere:CX,CY,CZ,R or box:X0,Y0,Z0,X1,Y1,Z1, optionally ",soft=W".
+        #[arg(long)]
+        mask: String,
+        /// Field: rotate:AX,AY,AZ,RATE[,CX,CY,CZ] (rad per unit time) or translate:UX,UY,UZ.
+        #[arg(long)]
+        field: String,
+        /// Times A:B:N.
+        #[arg(long, default_value = "0:1:40")]
+        times: String,
+        /// Cameras: orbit or test.
+        #[arg(long, default_value = "orbit")]
+        camera: CameraPath,
+        /// Also write OUT/inject.gif.
+        #[arg(long)]
+        gif: bool,
+        /// Dataset folder (default: the run's).
+        #[arg(long)]
+        data: Option<PathBuf>,
+    },
+    /// Recompute reference-vector files (projection, raster, ode, so3, metrics) in f64 and
+    /// print, per file, every quantity's largest error against its tolerance.
+    Verify {
+        /// Reference files (JSON); the kind is recognised from the content.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Measure the convergence order of every stepper on the ODE test problems: error table
+    /// over the step sequence and the fitted order.
+    CheckOrder {
+        /// Only this stepper (euler, midpoint, heun, rk4, rk38).
+        #[arg(long)]
+        stepper: Option<Method>,
+        /// Only this problem (logistic, cos-growth, harmonic-oscillator, rotating-decay,
+        /// so3-constant-rate, problem-k, symmetric-top, asymmetric-top).
+        #[arg(long)]
+        problem: Option<String>,
+    },
+    /// Check every VJP of the stack and the end-to-end training step against central
+    /// differences in f64; print the worst errors per group.
+    CheckGrad,
+    /// Export the Gaussians at time T as a standard 3DGS .ply.
+    Export {
+        /// Run folder.
+        #[arg(long)]
+        run: PathBuf,
+        /// Time.
+        #[arg(long)]
+        time: f64,
+        /// Output .ply file.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+/// Progress bars and messages on the terminal.
+struct Terminal {
+    bar: Option<ProgressBar>,
+}
+
+impl Reporter for Terminal {
+    fn start(&mut self, phase: &str, total: u64) {
+        let bar = ProgressBar::new(total);
+        bar.set_style(
+            ProgressStyle::with_template("{prefix:>14} [{bar:30}] {pos}/{len} {msg} (eta {eta})")
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
+        bar.set_prefix(phase.to_string());
+        self.bar = Some(bar);
+    }
+    fn progress(&mut self, done: u64, message: &str) {
+        if let Some(b) = &self.bar {
+            b.set_position(done);
+            if !message.is_empty() {
+                b.set_message(message.to_string());
+            }
+        }
+    }
+    fn finish(&mut self) {
+        if let Some(b) = self.bar.take() {
+            b.finish();
+        }
+    }
+    fn info(&mut self, message: &str) {
+        match &self.bar {
+            Some(b) => b.println(message),
+            None => eprintln!("{message}"),
+        }
+    }
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    let mut term = Terminal { bar: None };
+    match cli.cmd {
+        Cmd::Train {
+            data,
+            out,
+            config,
+            preset,
+            motion,
+            protocol,
+            stride,
+            split_time,
+            iters,
+            seed,
+            resume,
+        } => {
+            let args = TrainArgs {
+                data,
+                out,
+                config,
+                preset,
+                motion,
+                protocol,
+                stride,
+                split_time,
+                iters,
+                seed,
+                resume,
+                skip_outputs: false,
+            };
+            let o = train(&args, &mut term)?;
+            println!("run: {}", o.run.dir.display());
+            println!(
+                "trained {} iterations in {:.1} s ({:.3} s/iteration), {} Gaussians",
+                o.iterations,
+                o.seconds,
+                o.seconds / o.iterations.max(1) as f64,
+                o.gaussians
+            );
+            if let Some(m) = &o.test {
+                println!(
+                    "test: PSNR {:.2} dB, SSIM {:.4} over {} frames -> {}",
+                    m.psnr,
+                    m.ssim,
+                    m.frames.len(),
+                    o.run.metrics("test").display()
+                );
+            }
+            if let Some(g) = &o.gif {
+                println!("gif: {}", g.display());
+            }
+        }
+        Cmd::Eval {
+            run,
+            split,
+            time_range,
+            data,
+        } => {
+            let range = time_range
+                .as_deref()
+                .map(parse_range)
+                .transpose()
+                .map_err(anyhow::Error::msg)?;
+            let (m, path) = evaluate_run(&run, split, range, data.as_deref(), &mut term)?;
+            println!("{:>10} {:>8} {:>8}", "time", "PSNR", "SSIM");
+            for f in &m.frames {
+                println!("{:>10.4} {:>8.2} {:>8.4}", f.time, f.psnr, f.ssim);
+            }
+            println!(
+                "{:>10} {:>8.2} {:>8.4}   ({} frames) -> {}",
+                "mean",
+                m.psnr,
+                m.ssim,
+                m.frames.len(),
+                path.display()
+            );
+        }
+        Cmd::Render {
+            run,
+            out,
+            times,
+            camera,
+            gif,
+            data,
+        } => {
+            let times = parse_times(&times).map_err(anyhow::Error::msg)?;
+            let o = render_sequence(
+                &RenderArgs {
+                    run,
+                    out,
+                    times,
+                    camera,
+                    gif,
+                    data,
+                },
+                None,
+                &mut term,
+            )?;
+            println!("{} frames written", o.frames.len());
+            if let Some(g) = o.gif {
+                println!("gif: {}", g.display());
+            }
+        }
+        Cmd::Inject {
+            run,
+            out,
+            mask,
+            field,
+            times,
+            camera,
+            gif,
+            data,
+        } => {
+            let args = InjectArgs {
+                run,
+                out,
+                mask: parse_mask(&mask).map_err(anyhow::Error::msg)?,
+                field: parse_field(&field).map_err(anyhow::Error::msg)?,
+                times: parse_times(&times).map_err(anyhow::Error::msg)?,
+                camera,
+                gif,
+                data,
+            };
+            let frames = inject(&args, &mut term)?;
+            println!("{} frames written to {}", frames.len(), args.out.display());
+        }
+        Cmd::Export { run, time, out } => {
+            let n = export(&run, time, &out)?;
+            println!("{n} Gaussians at t = {time} -> {}", out.display());
+        }
+        Cmd::CheckOrder { stepper, problem } => {
+            let results = check_order(stepper, problem.as_deref())?;
+            for r in &results {
+                println!("{r}");
+            }
+            let failed = results.iter().filter(|r| !r.passed).count();
+            println!("check-order summary:");
+            for r in &results {
+                let fit = match (&r.study.estimate, r.expect) {
+                    (_, Expect::Exact) => "exact".to_string(),
+                    (Some(e), _) => format!("{:.3}", e.order),
+                    (None, _) => "none".to_string(),
+                };
+                let nominal = match r.expect {
+                    Expect::Exact => "exact".to_string(),
+                    Expect::Order(p) => p.to_string(),
+                };
+                println!(
+                    "  {:<20} {:<9} nominal {:<5} fitted {:<6} {}",
+                    r.study.problem,
+                    r.study.method,
+                    nominal,
+                    fit,
+                    if r.passed { "pass" } else { "FAIL" }
+                );
+            }
+            println!(
+                "check-order: {} of {} studies passed",
+                results.len() - failed,
+                results.len()
+            );
+            if failed > 0 {
+                std::process::exit(1);
+            }
+        }
+        Cmd::CheckGrad => {
+            let start = std::time::Instant::now();
+            let table = check_grad(usize::MAX);
+            println!("{table}");
+            println!("({:.1} s)", start.elapsed().as_secs_f64());
+            if !table.passed() {
+                std::process::exit(1);
+            }
+        }
+        Cmd::Verify { files } => {
+            let mut bad = 0_usize;
+            println!("{LEGEND}\n");
+            for f in &files {
+                match verify_file(f) {
+                    Ok(r) => {
+                        println!("{r}\n");
+                        bad += usize::from(!r.passed());
+                    }
+                    Err(e) => {
+                        eprintln!("error: {e}\n");
+                        bad += 1;
+                    }
+                }
+            }
+            println!(
+                "verify: {} of {} files passed",
+                files.len() - bad,
+                files.len()
+            );
+            if bad > 0 {
+                std::process::exit(1);
+            }
+        }
+    }
+    Ok(())
+}

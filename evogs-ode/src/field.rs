@@ -37,3 +37,43 @@ pub trait VectorField<T: Real> {
     /// rotation at `y` (a 3-vector).
     fn vjp(&mut self, t: T, y: &[T], w: &[T], d_y: &mut [T], d_params: &mut [T]);
 }
+
+/// A mutable reference to a field is a field: combinators such as
+/// [`Mix`](crate::algebra::Mix) can then borrow a field owned elsewhere (for example a
+/// trained neural field) instead of taking it by value.
+impl<T: Real, F: VectorField<T> + ?Sized> VectorField<T> for &mut F {
+    fn dim(&self) -> usize {
+        (**self).dim()
+    }
+    fn layout(&self) -> StateLayout {
+        (**self).layout()
+    }
+    fn n_params(&self) -> usize {
+        (**self).n_params()
+    }
+    fn eval(&mut self, t: T, y: &[T], dydt: &mut [T]) {
+        (**self).eval(t, y, dydt);
+    }
+    fn vjp(&mut self, t: T, y: &[T], w: &[T], d_y: &mut [T], d_params: &mut [T]) {
+        (**self).vjp(t, y, w, d_y, d_params);
+    }
+}
+
+/// A boxed field is a field (for fields chosen at run time, e.g. `Box<dyn VectorField<T>>`).
+impl<T: Real, F: VectorField<T> + ?Sized> VectorField<T> for alloc::boxed::Box<F> {
+    fn dim(&self) -> usize {
+        (**self).dim()
+    }
+    fn layout(&self) -> StateLayout {
+        (**self).layout()
+    }
+    fn n_params(&self) -> usize {
+        (**self).n_params()
+    }
+    fn eval(&mut self, t: T, y: &[T], dydt: &mut [T]) {
+        (**self).eval(t, y, dydt);
+    }
+    fn vjp(&mut self, t: T, y: &[T], w: &[T], d_y: &mut [T], d_params: &mut [T]) {
+        (**self).vjp(t, y, w, d_y, d_params);
+    }
+}

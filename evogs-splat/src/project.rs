@@ -291,7 +291,7 @@ pub(crate) fn project_full<T: Real>(
     out.fov_clamped = e.clamped;
 
     let in_range = t.z > camera.near && t.z < camera.far;
-    if !(in_range && e.det_b > T::ZERO) {
+    if !(in_range && e.det_b > T::ZERO && e.det_b.is_finite()) {
         return (out, Some(e));
     }
     let o_eff = if opts.antialiased {

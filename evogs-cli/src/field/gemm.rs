@@ -25,7 +25,7 @@ pub type MatRef<'a, T> = (&'a [T], usize, usize, usize, usize);
 const THIN: usize = 5;
 
 /// A scalar with a general matrix-multiply kernel: `C ← α·A·B + β·C`.
-pub trait Gemm: Real + nalgebra::RealField {
+pub trait Gemm: Real {
     /// `C ← alpha·A·B + beta·C` with `A` m×k, `B` k×n and `C` m×n given as strided views.
     ///
     /// # Panics
@@ -36,43 +36,125 @@ pub trait Gemm: Real + nalgebra::RealField {
         b: MatRef<'_, Self>,
         beta: Self,
         c: (&mut [Self], usize, usize, usize, usize),
-    ) {
-        let (ad, am, ak, ars, acs) = a;
-        let (bd, bk, bn, brs, bcs) = b;
-        let (cd, cm, cn, crs, ccs) = c;
-        assert!(
-            am == cm && bn == cn && ak == bk,
-            "gemm: shapes {am}x{ak} · {bk}x{bn} -> {cm}x{cn}"
+    );
+}
+
+/// The one implementation behind both scalar types.
+fn gemm_impl<T: Real + nalgebra::RealField>(
+    alpha: T,
+    a: MatRef<'_, T>,
+    b: MatRef<'_, T>,
+    beta: T,
+    c: (&mut [T], usize, usize, usize, usize),
+) {
+    let (ad, am, ak, ars, acs) = a;
+    let (bd, bk, bn, brs, bcs) = b;
+    let (cd, cm, cn, crs, ccs) = c;
+    assert!(
+        am == cm && bn == cn && ak == bk,
+        "gemm: shapes {am}x{ak} · {bk}x{bn} -> {cm}x{cn}"
+    );
+    if cm == 0 || cn == 0 {
+        return;
+    }
+    if cm <= THIN || cn <= THIN || ak <= THIN {
+        thin_gemm(
+            alpha,
+            (ad, ars, acs),
+            (bd, brs, bcs),
+            beta,
+            (cd, crs, ccs),
+            (cm, ak, cn),
         );
-        if cm == 0 || cn == 0 {
-            return;
-        }
-        if cm <= THIN || cn <= THIN || ak <= THIN {
-            for i in 0..cm {
-                for j in 0..cn {
-                    let mut s = Self::ZERO;
-                    for l in 0..ak {
-                        s += ad[i * ars + l * acs] * bd[l * brs + j * bcs];
-                    }
-                    let c = &mut cd[i * crs + j * ccs];
-                    *c = if beta == Self::ZERO {
-                        alpha * s
-                    } else {
-                        alpha * s + beta * *c
-                    };
+        return;
+    }
+    let av = DMatrixView::from_slice_with_strides(ad, am, ak, ars, acs);
+    let bv = DMatrixView::from_slice_with_strides(bd, bk, bn, brs, bcs);
+    let mut cv = DMatrixViewMut::from_slice_with_strides_mut(cd, cm, cn, crs, ccs);
+    cv.gemm(alpha, &av, &bv, beta);
+}
+
+/// `C ← α·A·B + β·C` for thin shapes, with the loop order chosen for contiguous inner loops
+/// (which the compiler vectorises): row-axpy when the rows of B and C are contiguous, dot
+/// products when the rows of A and the columns of B are, a plain triple loop otherwise.
+fn thin_gemm<T: Real>(
+    alpha: T,
+    a: (&[T], usize, usize),
+    b: (&[T], usize, usize),
+    beta: T,
+    c: (&mut [T], usize, usize),
+    (m, k, n): (usize, usize, usize),
+) {
+    let (ad, ars, acs) = a;
+    let (bd, brs, bcs) = b;
+    let (cd, crs, ccs) = c;
+    let zero = <T as Real>::ZERO;
+    if ccs == 1 && bcs == 1 {
+        for i in 0..m {
+            let row = &mut cd[i * crs..i * crs + n];
+            if beta == zero {
+                row.fill(zero);
+            } else if beta != <T as Real>::ONE {
+                for v in row.iter_mut() {
+                    *v *= beta;
                 }
             }
-            return;
+            for l in 0..k {
+                let s = alpha * ad[i * ars + l * acs];
+                let br = &bd[l * brs..l * brs + n];
+                for (v, &bv) in row.iter_mut().zip(br) {
+                    *v += s * bv;
+                }
+            }
         }
-        let av = DMatrixView::from_slice_with_strides(ad, am, ak, ars, acs);
-        let bv = DMatrixView::from_slice_with_strides(bd, bk, bn, brs, bcs);
-        let mut cv = DMatrixViewMut::from_slice_with_strides_mut(cd, cm, cn, crs, ccs);
-        cv.gemm(alpha, &av, &bv, beta);
+        return;
+    }
+    for i in 0..m {
+        for j in 0..n {
+            let s = if acs == 1 && brs == 1 {
+                let ar = &ad[i * ars..i * ars + k];
+                let bc = &bd[j * bcs..j * bcs + k];
+                ar.iter().zip(bc).fold(zero, |acc, (&x, &y)| acc + x * y)
+            } else {
+                let mut s = zero;
+                for l in 0..k {
+                    s += ad[i * ars + l * acs] * bd[l * brs + j * bcs];
+                }
+                s
+            };
+            let c = &mut cd[i * crs + j * ccs];
+            *c = if beta == zero {
+                alpha * s
+            } else {
+                alpha * s + beta * *c
+            };
+        }
     }
 }
 
-impl Gemm for f32 {}
-impl Gemm for f64 {}
+impl Gemm for f32 {
+    fn gemm(
+        alpha: Self,
+        a: MatRef<'_, Self>,
+        b: MatRef<'_, Self>,
+        beta: Self,
+        c: (&mut [Self], usize, usize, usize, usize),
+    ) {
+        gemm_impl(alpha, a, b, beta, c);
+    }
+}
+
+impl Gemm for f64 {
+    fn gemm(
+        alpha: Self,
+        a: MatRef<'_, Self>,
+        b: MatRef<'_, Self>,
+        beta: Self,
+        c: (&mut [Self], usize, usize, usize, usize),
+    ) {
+        gemm_impl(alpha, a, b, beta, c);
+    }
+}
 
 /// A row-major `rows × cols` operand.
 #[must_use]

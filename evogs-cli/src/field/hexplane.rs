@@ -217,6 +217,11 @@ impl HexPlane {
     pub fn n_lookups(&self) -> usize {
         6 * self.planes.len()
     }
+    /// The bounding box `(min, max)` the spatial coordinates are normalised over.
+    #[must_use]
+    pub const fn aabb(&self) -> ([f64; 3], [f64; 3]) {
+        (self.aabb_min, self.aabb_max)
+    }
     /// The time mapping.
     #[must_use]
     pub const fn time_mapping(&self) -> TimeMapping {

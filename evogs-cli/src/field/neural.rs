@@ -21,7 +21,7 @@ use evogs_math::rng::SplitMix64;
 use evogs_ode::{Block, StateLayout, VectorField};
 
 /// Gaussians per work chunk.
-pub const CHUNK: usize = 128;
+pub const CHUNK: usize = 256;
 /// State entries per Gaussian: position (3), quaternion (4), log-scale (3).
 pub const STATE_STRIDE: usize = 10;
 
@@ -395,8 +395,11 @@ fn decode_chunk_vjp<T: Gemm>(
     let ch = hex.channels();
     let n_lk = hex.n_lookups();
     let fd = hex.feature_dim();
-    let mut prefix = [T::ZERO; 256];
+    let mut prefix_buf = [T::ZERO; 256];
+    let mut suffix_buf = [T::ZERO; 256];
     assert!(ch <= 256, "at most 256 channels");
+    let prefix = &mut prefix_buf[..ch];
+    let suffix = &mut suffix_buf[..ch];
     for r in 0..rows {
         let p = [pos[r * stride], pos[r * stride + 1], pos[r * stride + 2]];
         let (c, dcdp) = hex.coords(p, t);
@@ -406,29 +409,28 @@ fn decode_chunk_vjp<T: Gemm>(
             // ds_q = d_f ⊙ Π_{q' ≠ q} s_q' via prefix and suffix products (no division).
             let base = (r * n_lk + l * 6) * ch;
             let smp = &s.samples[base..base + 6 * ch];
-            prefix[..ch].fill(T::ONE);
-            for q in 0..6 {
-                let k = r * n_lk + l * 6 + q;
-                let ds = &mut dss[k * ch..(k + 1) * ch];
-                for cc in 0..ch {
-                    ds[cc] = d_f[cc] * prefix[cc];
-                    prefix[cc] *= smp[q * ch + cc];
+            let dsl = &mut dss[base..base + 6 * ch];
+            prefix.fill(T::ONE);
+            for (ds, sq) in dsl.chunks_exact_mut(ch).zip(smp.chunks_exact(ch)) {
+                for (((d, pr), &f), &sv) in ds.iter_mut().zip(prefix.iter_mut()).zip(d_f).zip(sq) {
+                    *d = f * *pr;
+                    *pr *= sv;
                 }
             }
-            let mut suffix = [T::ONE; 256];
+            suffix.fill(T::ONE);
             for q in (0..6).rev() {
-                let k = r * n_lk + l * 6 + q;
-                let ds = &mut dss[k * ch..(k + 1) * ch];
-                for cc in 0..ch {
-                    ds[cc] *= suffix[cc];
-                    suffix[cc] *= smp[q * ch + cc];
+                let ds = &mut dsl[q * ch..(q + 1) * ch];
+                let sq = &smp[q * ch..(q + 1) * ch];
+                for ((d, su), &sv) in ds.iter_mut().zip(suffix.iter_mut()).zip(sq) {
+                    *d *= *su;
+                    *su *= sv;
                 }
                 let lk = hex.lookup(l, q, &c);
                 let (gu, gv) = HexPlane::sample_coord_grad(params, &lk, ds);
                 let (i, j) = super::hexplane::PLANE_AXES[q];
                 d_c[i] += gu;
                 d_c[j] += gv;
-                lks[k] = lk;
+                lks[r * n_lk + l * 6 + q] = lk;
             }
         }
         for a in 0..3 {

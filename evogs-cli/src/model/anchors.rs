@@ -7,7 +7,7 @@
 //! anchors are periodically refreshed copies of the trajectory integrated from anchor 0; in
 //! [`Waypoints::Off`] mode everything integrates from anchor 0 (the released code).
 
-use evogs_math::{Quat, Vec3};
+use evogs_math::{Quat, Real, Vec3};
 
 /// Waypoint mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -37,16 +37,16 @@ impl std::str::FromStr for Waypoints {
 
 /// The dynamic state of all Gaussians at one anchor time.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct AnchorState {
+pub struct AnchorState<T> {
     /// Positions.
-    pub means: Vec<Vec3<f32>>,
+    pub means: Vec<Vec3<T>>,
     /// Log-scales.
-    pub log_scales: Vec<Vec3<f32>>,
+    pub log_scales: Vec<Vec3<T>>,
     /// Raw quaternions (normalised when used).
-    pub quats: Vec<Quat<f32>>,
+    pub quats: Vec<Quat<T>>,
 }
 
-impl AnchorState {
+impl<T: Real> AnchorState<T> {
     /// Zeros of the same shape.
     #[must_use]
     pub fn zeros_like(&self) -> Self {
@@ -72,12 +72,9 @@ impl AnchorState {
     }
     /// Keeps the Gaussians flagged in `keep`.
     pub fn retain(&mut self, keep: &[bool]) {
-        let mut it = keep.iter();
-        self.means.retain(|_| *it.next().unwrap_or(&false));
-        let mut it = keep.iter();
-        self.log_scales.retain(|_| *it.next().unwrap_or(&false));
-        let mut it = keep.iter();
-        self.quats.retain(|_| *it.next().unwrap_or(&false));
+        crate::train::adam::retain_items(&mut self.means, keep, 1);
+        crate::train::adam::retain_items(&mut self.log_scales, keep, 1);
+        crate::train::adam::retain_items(&mut self.quats, keep, 1);
     }
 }
 

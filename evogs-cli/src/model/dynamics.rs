@@ -9,13 +9,14 @@
 //! normalisation VJP.
 
 use super::{Model, ModelGrad, Motion, Waypoints};
+use crate::field::Gemm;
 use crate::field::neural::STATE_STRIDE;
 use evogs_math::activation::normalize_quat_vjp;
 use evogs_math::so3::log_quat;
 use evogs_math::update::{
     ambient_from_left_cotangent, exp_update_left, exp_update_left_vjp, left_cotangent_from_ambient,
 };
-use evogs_math::{Quat, Vec3};
+use evogs_math::{Quat, Real, Vec3};
 use evogs_ode::{
     Checkpointing, Stepper, TimeGrid, Trajectory, VectorField, discrete_adjoint, integrate,
     integrate_trajectory,
@@ -27,7 +28,7 @@ const TANGENT: usize = 9;
 
 /// What [`Model::backward_at`] needs from the forward pass of one frame.
 #[derive(Debug)]
-pub enum FrameTape {
+pub enum FrameTape<T> {
     /// The canonical Gaussians were rendered as they are.
     Static,
     /// Integrated from `anchor` along `trajectory`.
@@ -35,23 +36,23 @@ pub enum FrameTape {
         /// Anchor index.
         anchor: usize,
         /// The stored states.
-        trajectory: Trajectory<f32>,
+        trajectory: Trajectory<T>,
     },
     /// Displaced by the network outputs `out` (N × 9) evaluated at time `t`.
     Deformation {
         /// Frame time.
-        t: f32,
+        t: T,
         /// Network outputs `[Δp, Δω, Δs]`.
-        out: Vec<f32>,
+        out: Vec<T>,
     },
 }
 
 /// Packs anchor parameters into ODE states (quaternions normalised).
-fn pack_state(
-    means: &[Vec3<f32>],
-    log_scales: &[Vec3<f32>],
-    quats: &[Quat<f32>],
-    y: &mut Vec<f32>,
+fn pack_state<T: Real>(
+    means: &[Vec3<T>],
+    log_scales: &[Vec3<T>],
+    quats: &[Quat<T>],
+    y: &mut Vec<T>,
 ) {
     y.clear();
     for i in 0..means.len() {
@@ -62,7 +63,7 @@ fn pack_state(
 }
 
 /// Gaussian `i` of an ODE state.
-fn unpack(y: &[f32], i: usize) -> (Vec3<f32>, Quat<f32>, Vec3<f32>) {
+fn unpack<T: Real>(y: &[T], i: usize) -> (Vec3<T>, Quat<T>, Vec3<T>) {
     let s = &y[i * STATE_STRIDE..(i + 1) * STATE_STRIDE];
     (
         Vec3::from_slice(s),
@@ -71,9 +72,9 @@ fn unpack(y: &[f32], i: usize) -> (Vec3<f32>, Quat<f32>, Vec3<f32>) {
     )
 }
 
-impl Model {
+impl<T: Gemm> Model<T> {
     /// A stepper for the current number of Gaussians (rebuilt when the count changes).
-    fn stepper(&mut self, stepper: &mut Option<Stepper<f32>>) -> Stepper<f32> {
+    fn stepper(&mut self, stepper: &mut Option<Stepper<T>>) -> Stepper<T> {
         self.field.set_count(self.len());
         match stepper.take() {
             Some(s) if *s.layout() == self.field.layout() => s,
@@ -82,9 +83,38 @@ impl Model {
     }
 
     /// The time grid from anchor `k` to `t`.
-    fn grid(&self, k: usize, t: f64) -> TimeGrid<f32> {
-        #[allow(clippy::cast_possible_truncation, reason = "f32 training")]
-        TimeGrid::with_max_step(self.anchor_times[k] as f32, t as f32, self.max_step as f32)
+    fn grid(&self, k: usize, t: f64) -> TimeGrid<T> {
+        TimeGrid::with_max_step(
+            T::from_f64(self.anchor_times[k]),
+            T::from_f64(t),
+            T::from_f64(self.max_step),
+        )
+    }
+
+    /// The ODE state `[p, q̂, s]` per Gaussian of anchor `k`.
+    #[must_use]
+    pub fn initial_state(&self, k: usize) -> Vec<T> {
+        let (m, s, q) = self.anchor_state(k);
+        let mut y = Vec::with_capacity(self.len() * STATE_STRIDE);
+        pack_state(m, s, q, &mut y);
+        y
+    }
+
+    /// The time grid of a frame at `t` integrated from anchor `k`.
+    #[must_use]
+    pub fn grid_to(&self, k: usize, t: f64) -> TimeGrid<T> {
+        self.grid(k, t)
+    }
+
+    /// The Gaussians of an ODE state (opacity and colour from the canonical ones).
+    pub fn splats_from_state(&self, y: &[T], out: &mut Splats<T>) {
+        out.clone_from(&self.canonical);
+        for i in 0..self.len() {
+            let (p, q, s) = unpack(y, i);
+            out.means[i] = p;
+            out.quats[i] = q;
+            out.log_scales[i] = s;
+        }
     }
 
     /// The anchor a frame at `t` starts from under the current waypoint mode.
@@ -101,15 +131,14 @@ impl Model {
     pub fn splats_at(
         &mut self,
         t: f64,
-        stepper: &mut Option<Stepper<f32>>,
-        out: &mut Splats<f32>,
-    ) -> FrameTape {
+        stepper: &mut Option<Stepper<T>>,
+        out: &mut Splats<T>,
+    ) -> FrameTape<T> {
         out.clone_from(&self.canonical);
         if !self.dynamics_active || self.motion == Motion::Static {
             return FrameTape::Static;
         }
-        #[allow(clippy::cast_possible_truncation, reason = "f32 training")]
-        let tf = t as f32;
+        let tf = T::from_f64(t);
         let n = self.len();
         match self.motion {
             Motion::Velocity => {
@@ -140,13 +169,13 @@ impl Model {
                 }
             }
             Motion::Deformation => {
-                let pos: Vec<f32> = self
+                let pos: Vec<T> = self
                     .canonical
                     .means
                     .iter()
                     .flat_map(|v| v.to_array())
                     .collect();
-                let mut net = vec![0.0; n * TANGENT];
+                let mut net = vec![T::ZERO; n * TANGENT];
                 self.field.eval_batch(tf, &pos, 3, n, &mut net);
                 for i in 0..n {
                     let o = &net[i * TANGENT..];
@@ -154,7 +183,7 @@ impl Model {
                     out.quats[i] = exp_update_left(
                         self.canonical.quats[i].normalize(),
                         Vec3::from_slice(&o[3..]),
-                        1.0,
+                        T::ONE,
                     );
                     out.log_scales[i] += Vec3::from_slice(&o[6..]);
                 }
@@ -168,10 +197,10 @@ impl Model {
     /// Gaussians returned by [`splats_at`](Self::splats_at) is `d`.
     pub fn backward_at(
         &mut self,
-        tape: &FrameTape,
-        stepper: &mut Option<Stepper<f32>>,
-        d: &SplatsGrad<f32>,
-        grad: &mut ModelGrad,
+        tape: &FrameTape<T>,
+        stepper: &mut Option<Stepper<T>>,
+        d: &SplatsGrad<T>,
+        grad: &mut ModelGrad<T>,
     ) {
         let n = self.len();
         let c = &mut grad.canonical;
@@ -193,7 +222,7 @@ impl Model {
             }
             FrameTape::Velocity { anchor, trajectory } => {
                 let y = trajectory.final_state();
-                let mut d_final = vec![0.0_f32; n * TANGENT];
+                let mut d_final = vec![T::ZERO; n * TANGENT];
                 for i in 0..n {
                     let (_, q, _) = unpack(y, i);
                     let o = &mut d_final[i * TANGENT..(i + 1) * TANGENT];
@@ -204,14 +233,14 @@ impl Model {
                 self.adjoint_to_anchor(*anchor, trajectory, &d_final, stepper, grad);
             }
             FrameTape::Deformation { t, out } => {
-                let mut d_net = vec![0.0_f32; n * TANGENT];
+                let mut d_net = vec![T::ZERO; n * TANGENT];
                 for i in 0..n {
                     let q0 = self.canonical.quats[i];
                     let o = &out[i * TANGENT..];
                     let g = exp_update_left_vjp(
                         q0.normalize(),
                         Vec3::from_slice(&o[3..]),
-                        1.0,
+                        T::ONE,
                         d.quats[i],
                     );
                     let dn = &mut d_net[i * TANGENT..(i + 1) * TANGENT];
@@ -222,13 +251,13 @@ impl Model {
                     grad.canonical.log_scales[i] += d.log_scales[i];
                     grad.canonical.quats[i] = grad.canonical.quats[i] + normalize_quat_vjp(q0, g.q);
                 }
-                let pos: Vec<f32> = self
+                let pos: Vec<T> = self
                     .canonical
                     .means
                     .iter()
                     .flat_map(|v| v.to_array())
                     .collect();
-                let mut d_pos = vec![0.0_f32; n * 3];
+                let mut d_pos = vec![T::ZERO; n * 3];
                 self.field
                     .vjp_batch(*t, &pos, 3, n, &d_net, &mut d_pos, 3, &mut grad.field);
                 for i in 0..n {
@@ -243,13 +272,13 @@ impl Model {
     fn adjoint_to_anchor(
         &mut self,
         k: usize,
-        trajectory: &Trajectory<f32>,
-        d_final: &[f32],
-        stepper: &mut Option<Stepper<f32>>,
-        grad: &mut ModelGrad,
+        trajectory: &Trajectory<T>,
+        d_final: &[T],
+        stepper: &mut Option<Stepper<T>>,
+        grad: &mut ModelGrad<T>,
     ) {
         let n = self.len();
-        let mut d_y0 = vec![0.0_f32; n * TANGENT];
+        let mut d_y0 = vec![T::ZERO; n * TANGENT];
         let mut st = self.stepper(stepper);
         discrete_adjoint(
             &mut self.field,
@@ -261,7 +290,7 @@ impl Model {
         );
         *stepper = Some(st);
         let y0 = trajectory.initial_state();
-        let raw: Vec<Quat<f32>> = self.anchor_state(k).2.to_vec();
+        let raw: Vec<Quat<T>> = self.anchor_state(k).2.to_vec();
         let (gm, gs, gq) = grad.anchor_state_mut(k);
         for i in 0..n {
             let (_, q_hat, _) = unpack(y0, i);
@@ -284,8 +313,8 @@ impl Model {
         &mut self,
         k: usize,
         weight: f64,
-        stepper: &mut Option<Stepper<f32>>,
-        grad: &mut ModelGrad,
+        stepper: &mut Option<Stepper<T>>,
+        grad: &mut ModelGrad<T>,
     ) -> f64 {
         assert!(
             k + 1 < self.anchor_times.len(),
@@ -309,13 +338,9 @@ impl Model {
         );
         *stepper = Some(st);
         let y = trajectory.final_state();
-        #[allow(
-            clippy::cast_precision_loss,
-            clippy::cast_possible_truncation,
-            reason = "f32 training"
-        )]
-        let w = (weight / n as f64) as f32;
-        let mut d_final = vec![0.0_f32; n * TANGENT];
+        #[allow(clippy::cast_precision_loss, reason = "counts are small")]
+        let w = T::from_f64(weight / n as f64);
+        let mut d_final = vec![T::ZERO; n * TANGENT];
         let mut loss = 0.0_f64;
         let target = &self.anchors[k];
         let (gm, gs, gq) = {
@@ -328,24 +353,26 @@ impl Model {
             let dp = p - target.means[i];
             let ds = s - target.log_scales[i];
             let delta = log_quat(q.mul_quat(qa.conj()));
-            loss += f64::from(dp.norm_squared() + ds.norm_squared() + delta.norm_squared());
+            loss += (dp.norm_squared() + ds.norm_squared() + delta.norm_squared()).to_f64();
             let o = &mut d_final[i * TANGENT..(i + 1) * TANGENT];
-            (dp * (2.0 * w)).write_to(o);
-            (delta * (2.0 * w)).write_to(&mut o[3..]);
-            (ds * (2.0 * w)).write_to(&mut o[6..]);
-            gm[i] -= dp * (2.0 * w);
-            gs[i] -= ds * (2.0 * w);
+            (dp * (T::TWO * w)).write_to(o);
+            (delta * (T::TWO * w)).write_to(&mut o[3..]);
+            (ds * (T::TWO * w)).write_to(&mut o[6..]);
+            gm[i] -= dp * (T::TWO * w);
+            gs[i] -= ds * (T::TWO * w);
             // d|Log(q qa*)|²/d(left perturbation of qa) = −2δ.
-            let amb = ambient_from_left_cotangent(qa, delta * (-2.0 * w));
+            let amb = ambient_from_left_cotangent(qa, delta * (-T::TWO * w));
             gq[i] = gq[i] + normalize_quat_vjp(target.quats[i], amb);
         }
         self.adjoint_to_anchor(k, &trajectory, &d_final, stepper, grad);
-        loss * weight / n as f64
+        #[allow(clippy::cast_precision_loss, reason = "counts are small")]
+        let mean = loss * weight / n as f64;
+        mean
     }
 
     /// Sets anchors `1..K` to the state integrated from anchor 0 (through each anchor in
     /// turn): the initialisation of trainable anchors and the refresh of snapshot anchors.
-    pub fn refresh_anchors_from_start(&mut self, stepper: &mut Option<Stepper<f32>>) {
+    pub fn refresh_anchors_from_start(&mut self, stepper: &mut Option<Stepper<T>>) {
         let n = self.len();
         let mut y = Vec::with_capacity(n * STATE_STRIDE);
         pack_state(

@@ -18,7 +18,7 @@ pub mod init;
 pub use anchors::{AnchorState, Waypoints, anchor_for_time};
 pub use dynamics::FrameTape;
 
-use crate::field::NeuralField;
+use crate::field::{Gemm, NeuralField};
 use evogs_math::{Quat, Vec3};
 use evogs_ode::Method;
 use evogs_splat::{Splats, SplatsGrad};
@@ -49,17 +49,17 @@ impl std::str::FromStr for Motion {
     }
 }
 
-/// The trainable scene.
+/// The trainable scene, generic over the scalar (f32 to train, f64 to check gradients).
 #[derive(Debug)]
-pub struct Model {
+pub struct Model<T> {
     /// Canonical Gaussians (anchor 0's state, opacity and colour for every time).
-    pub canonical: Splats<f32>,
+    pub canonical: Splats<T>,
     /// Anchor times `τ_0 < τ_1 < …` (`τ_0` is the canonical time).
     pub anchor_times: Vec<f64>,
     /// States of anchors `1..K` (index `k − 1`).
-    pub anchors: Vec<AnchorState>,
+    pub anchors: Vec<AnchorState<T>>,
     /// The neural field (used by velocity and deformation motion).
-    pub field: NeuralField<f32>,
+    pub field: NeuralField<T>,
     /// Dynamics mode.
     pub motion: Motion,
     /// Waypoint mode.
@@ -73,26 +73,57 @@ pub struct Model {
 }
 
 /// Borrowed positions, log-scales and raw quaternions of one anchor.
-pub type StateRef<'a> = (&'a [Vec3<f32>], &'a [Vec3<f32>], &'a [Quat<f32>]);
+pub type StateRef<'a, T> = (&'a [Vec3<T>], &'a [Vec3<T>], &'a [Quat<T>]);
 /// Mutably borrowed positions, log-scales and raw quaternions of one anchor.
-pub type StateMut<'a> = (
-    &'a mut [Vec3<f32>],
-    &'a mut [Vec3<f32>],
-    &'a mut [Quat<f32>],
-);
+pub type StateMut<'a, T> = (&'a mut [Vec3<T>], &'a mut [Vec3<T>], &'a mut [Quat<T>]);
 
 /// Gradients of every trainable part of a [`Model`] (same shapes).
 #[derive(Clone, Debug)]
-pub struct ModelGrad {
+pub struct ModelGrad<T> {
     /// Canonical Gaussians.
-    pub canonical: SplatsGrad<f32>,
+    pub canonical: SplatsGrad<T>,
     /// Anchors `1..K`.
-    pub anchors: Vec<AnchorState>,
+    pub anchors: Vec<AnchorState<T>>,
     /// Field parameters.
-    pub field: Vec<f32>,
+    pub field: Vec<T>,
 }
 
-impl Model {
+impl<T: Gemm> Model<T> {
+    /// A model with the dynamics off; anchors `1..K` start as copies of the canonical state.
+    #[must_use]
+    pub fn new(
+        canonical: Splats<T>,
+        field: NeuralField<T>,
+        motion: Motion,
+        waypoints: Waypoints,
+        method: Method,
+        max_step: f64,
+        anchor_times: Vec<f64>,
+    ) -> Self {
+        let anchor_times = if waypoints == Waypoints::Off {
+            anchor_times.into_iter().take(1).collect()
+        } else {
+            anchor_times
+        };
+        let copy = AnchorState {
+            means: canonical.means.clone(),
+            log_scales: canonical.log_scales.clone(),
+            quats: canonical.quats.clone(),
+        };
+        let anchors = vec![copy; anchor_times.len().saturating_sub(1)];
+        Self {
+            canonical,
+            anchor_times,
+            anchors,
+            field,
+            motion,
+            waypoints,
+            method,
+            max_step,
+            dynamics_active: false,
+        }
+    }
+
     /// Number of Gaussians.
     #[must_use]
     pub fn len(&self) -> usize {
@@ -107,17 +138,17 @@ impl Model {
 
     /// A zero gradient shaped like the model.
     #[must_use]
-    pub fn zero_grad(&self) -> ModelGrad {
+    pub fn zero_grad(&self) -> ModelGrad<T> {
         ModelGrad {
             canonical: self.canonical.zeros_like(),
             anchors: self.anchors.iter().map(AnchorState::zeros_like).collect(),
-            field: vec![0.0; self.field.params().len()],
+            field: vec![T::ZERO; self.field.params().len()],
         }
     }
 
     /// The state of anchor `k` (0 = canonical): positions, log-scales, raw quaternions.
     #[must_use]
-    pub fn anchor_state(&self, k: usize) -> StateRef<'_> {
+    pub fn anchor_state(&self, k: usize) -> StateRef<'_, T> {
         if k == 0 {
             (
                 &self.canonical.means,
@@ -131,18 +162,18 @@ impl Model {
     }
 }
 
-impl ModelGrad {
+impl<T: Gemm> ModelGrad<T> {
     /// Sets every entry to zero.
     pub fn fill_zero(&mut self) {
         self.canonical.fill_zero();
         for a in &mut self.anchors {
             a.fill_zero();
         }
-        self.field.fill(0.0);
+        self.field.fill(T::ZERO);
     }
 
     /// The gradient slots of anchor `k` (0 = canonical).
-    pub fn anchor_state_mut(&mut self, k: usize) -> StateMut<'_> {
+    pub fn anchor_state_mut(&mut self, k: usize) -> StateMut<'_, T> {
         if k == 0 {
             let c = &mut self.canonical;
             (&mut c.means, &mut c.log_scales, &mut c.quats)

@@ -2,3 +2,8 @@
 
 pub mod adam;
 pub mod coherence;
+pub mod densify;
+pub mod optim;
+pub mod step;
+pub mod trainer;
+pub mod views;

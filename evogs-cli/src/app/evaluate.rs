@@ -1,0 +1,76 @@
+//! `evogs eval`: metrics of a trained run on a split, written to `RUN/metrics-<split>.json`.
+
+use super::Reporter;
+use super::paths::RunFolder;
+use super::train::{CommandError, load_dataset};
+use crate::data::SplitName;
+use crate::eval::{SplitMetrics, evaluate};
+use crate::run::checkpoint;
+use evogs_math::Par;
+use std::path::{Path, PathBuf};
+
+/// Parses `A:B` into a closed time range.
+///
+/// # Errors
+/// A malformed range.
+pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let p: Vec<&str> = s.split(':').collect();
+    let bad = || format!("`{s}` is not A:B (e.g. 0.75:1)");
+    if p.len() != 2 {
+        return Err(bad());
+    }
+    let a: f64 = p[0].trim().parse().map_err(|_| bad())?;
+    let b: f64 = p[1].trim().parse().map_err(|_| bad())?;
+    if a > b {
+        return Err(bad());
+    }
+    Ok((a, b))
+}
+
+/// Runs `evogs eval` and writes the metrics file; returns the metrics and the file.
+///
+/// # Errors
+/// Unreadable run or data, an empty split.
+pub fn evaluate_run(
+    run: &Path,
+    split: SplitName,
+    range: Option<(f64, f64)>,
+    data: Option<&Path>,
+    rep: &mut dyn Reporter,
+) -> Result<(SplitMetrics, PathBuf), CommandError> {
+    let folder = RunFolder::new(run);
+    let l = checkpoint::load_model(&folder.checkpoint()).map_err(CommandError::from_display)?;
+    let dir = match data {
+        Some(d) => d.to_path_buf(),
+        None => folder.data_dir().map_err(CommandError)?,
+    };
+    let ds = load_dataset(&dir, &l.cfg, true)?;
+    let views = ds.split(split);
+    if views.is_empty() {
+        return Err(CommandError(format!(
+            "{}: the dataset has no `{}` split",
+            dir.display(),
+            split.as_str()
+        )));
+    }
+    let mut model = l.model;
+    model.field.set_par(Par::best());
+    rep.start(&format!("evaluate {}", split.as_str()), views.len() as u64);
+    let mut m = evaluate(
+        &mut model,
+        views,
+        split,
+        range,
+        l.cfg.data.background,
+        Par::best(),
+        |d, _| rep.progress(d as u64, ""),
+    )
+    .map_err(CommandError)?;
+    rep.finish();
+    m.iterations = l.archive.meta["iteration"].as_u64().unwrap_or(0);
+    m.train_seconds = l.archive.meta["train_seconds"].as_f64().unwrap_or(0.0);
+    let path = folder.metrics(split.as_str());
+    std::fs::write(&path, serde_json::to_string_pretty(&m).unwrap_or_default())
+        .map_err(|e| CommandError(format!("{}: {e}", path.display())))?;
+    Ok((m, path))
+}

@@ -1,0 +1,34 @@
+//! The commands of the `evogs` binary as library functions (the binary only parses
+//! arguments): training, evaluation, rendering, export. Output goes through a [`Reporter`];
+//! the library never prints.
+
+pub mod evaluate;
+pub mod export;
+pub mod inject;
+pub mod paths;
+pub mod plot;
+pub mod render;
+pub mod train;
+
+/// Receives progress and messages from long-running commands.
+pub trait Reporter {
+    /// A new phase with `total` steps.
+    fn start(&mut self, phase: &str, total: u64);
+    /// Progress within the phase.
+    fn progress(&mut self, done: u64, message: &str);
+    /// The phase is done.
+    fn finish(&mut self);
+    /// A one-line message.
+    fn info(&mut self, message: &str);
+}
+
+/// A reporter that discards everything (tests, library use).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Silent;
+
+impl Reporter for Silent {
+    fn start(&mut self, _: &str, _: u64) {}
+    fn progress(&mut self, _: u64, _: &str) {}
+    fn finish(&mut self) {}
+    fn info(&mut self, _: &str) {}
+}

@@ -1,0 +1,76 @@
+//! Run-folder layout and the shipped scene.
+
+use std::path::{Path, PathBuf};
+
+/// The files of a run folder.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RunFolder {
+    /// The folder.
+    pub dir: PathBuf,
+}
+
+impl RunFolder {
+    /// A run folder at `dir`.
+    #[must_use]
+    pub fn new(dir: &Path) -> Self {
+        Self {
+            dir: dir.to_path_buf(),
+        }
+    }
+    /// The resolved configuration (TOML).
+    #[must_use]
+    pub fn config(&self) -> PathBuf {
+        self.dir.join("config.toml")
+    }
+    /// The latest checkpoint.
+    #[must_use]
+    pub fn checkpoint(&self) -> PathBuf {
+        self.dir.join("checkpoint.bin")
+    }
+    /// The training log (CSV).
+    #[must_use]
+    pub fn log(&self) -> PathBuf {
+        self.dir.join("log.csv")
+    }
+    /// The loss/PSNR curve (PNG).
+    #[must_use]
+    pub fn curve(&self) -> PathBuf {
+        self.dir.join("curve.png")
+    }
+    /// Metrics of a split.
+    #[must_use]
+    pub fn metrics(&self, split: &str) -> PathBuf {
+        self.dir.join(format!("metrics-{split}.json"))
+    }
+    /// Where the dataset path of the run is recorded.
+    #[must_use]
+    pub fn data_ref(&self) -> PathBuf {
+        self.dir.join("data.txt")
+    }
+    /// The dataset folder recorded by `evogs train`.
+    ///
+    /// # Errors
+    /// A missing or unreadable record.
+    pub fn data_dir(&self) -> Result<PathBuf, String> {
+        let p = self.data_ref();
+        std::fs::read_to_string(&p)
+            .map(|s| PathBuf::from(s.trim()))
+            .map_err(|e| {
+                format!(
+                    "{}: cannot read the run's dataset path: {e} (pass --data)",
+                    p.display()
+                )
+            })
+    }
+}
+
+/// The scene shipped in the repository (`data/toys-mini`): next to the working directory
+/// if run from the repository root, else next to this crate's sources.
+#[must_use]
+pub fn shipped_scene() -> PathBuf {
+    let local = PathBuf::from("data/toys-mini");
+    if local.join("transforms_train.json").is_file() {
+        return local;
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/toys-mini")
+}

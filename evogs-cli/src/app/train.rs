@@ -1,0 +1,292 @@
+//! `evogs train`: resolve the configuration, load the data, train with checkpoints and a
+//! log, then evaluate on the test split and render a GIF.
+
+use super::paths::{RunFolder, shipped_scene};
+use super::render::{CameraPath, RenderArgs, render_sequence};
+use super::{Reporter, plot};
+use crate::config::{Protocol, TrainConfig};
+use crate::data::{Dataset, LoadOptions, SplitName};
+use crate::eval::{SplitMetrics, evaluate};
+use crate::model::Motion;
+use crate::run::checkpoint;
+use crate::train::trainer::{LogRow, Trainer};
+use crate::train::views::{supervised_indices, training_views};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Why a command failed: one line naming the file or setting at fault.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct CommandError(pub String);
+
+impl CommandError {
+    /// An error from anything printable.
+    pub fn from_display(e: impl std::fmt::Display) -> Self {
+        Self(e.to_string())
+    }
+}
+
+/// The arguments of `evogs train`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TrainArgs {
+    /// Dataset folder (default: the shipped scene).
+    pub data: Option<PathBuf>,
+    /// Run folder.
+    pub out: PathBuf,
+    /// Configuration file overlaid on the preset.
+    pub config: Option<PathBuf>,
+    /// Preset (`fast` by default, or `paper`).
+    pub preset: Option<String>,
+    /// Motion override.
+    pub motion: Option<Motion>,
+    /// Protocol override.
+    pub protocol: Option<Protocol>,
+    /// Sparse-protocol stride override.
+    pub stride: Option<usize>,
+    /// Future/backward split-time override.
+    pub split_time: Option<f64>,
+    /// Total-iterations override.
+    pub iters: Option<u64>,
+    /// Seed override.
+    pub seed: Option<u64>,
+    /// Continue from the run folder's checkpoint.
+    pub resume: bool,
+    /// Skip the final evaluation and GIF (tests).
+    pub skip_outputs: bool,
+}
+
+/// What a training run produced.
+#[derive(Clone, Debug)]
+pub struct TrainOutcome {
+    /// The run folder.
+    pub run: RunFolder,
+    /// Test metrics (if the dataset has a test split).
+    pub test: Option<SplitMetrics>,
+    /// The GIF, if rendered.
+    pub gif: Option<PathBuf>,
+    /// Iterations done.
+    pub iterations: u64,
+    /// Training seconds.
+    pub seconds: f64,
+    /// Final number of Gaussians.
+    pub gaussians: usize,
+}
+
+/// Resolves the configuration: preset, then the file, then the flags.
+///
+/// # Errors
+/// Unknown preset, unreadable or invalid file, invalid values.
+pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig, CommandError> {
+    let mut cfg =
+        TrainConfig::preset(args.preset.as_deref().unwrap_or("fast")).map_err(CommandError)?;
+    if let Some(p) = &args.config {
+        let text = std::fs::read_to_string(p)
+            .map_err(|e| CommandError(format!("{}: cannot read: {e}", p.display())))?;
+        cfg = cfg
+            .merge_toml(&text)
+            .map_err(|e| CommandError(format!("{}: {e}", p.display())))?;
+    }
+    if let Some(m) = args.motion {
+        cfg.dynamics.motion = m;
+    }
+    if let Some(p) = args.protocol {
+        cfg.data.protocol = p;
+    }
+    if let Some(s) = args.stride {
+        cfg.data.stride = s;
+    }
+    if let Some(t) = args.split_time {
+        cfg.data.split_time = t;
+    }
+    if let Some(n) = args.iters {
+        cfg.schedule.iterations = n;
+        cfg.schedule.warmup_iters = cfg.schedule.warmup_iters.min(n);
+    }
+    if let Some(s) = args.seed {
+        cfg.seed = s;
+    }
+    cfg.validate().map_err(CommandError)?;
+    Ok(cfg)
+}
+
+/// Loads a dataset with the run's background and downscale.
+///
+/// # Errors
+/// Any data problem, naming the file.
+pub fn load_dataset(dir: &Path, cfg: &TrainConfig, images: bool) -> Result<Dataset, CommandError> {
+    let opts = LoadOptions {
+        background: cfg.data.background,
+        downscale: cfg.data.downscale,
+        load_images: images,
+        ..LoadOptions::default()
+    };
+    Dataset::load(dir, &opts).map_err(CommandError::from_display)
+}
+
+fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
+    let mut s =
+        String::from("iteration,seconds,loss,l1,psnr,ssim,regularizers,gaussians,lr_position\n");
+    for r in log {
+        let _ = writeln!(
+            s,
+            "{},{:.3},{:.6e},{:.6e},{:.4},{:.5},{:.6e},{},{:.4e}",
+            r.iteration,
+            r.seconds,
+            r.loss,
+            r.l1,
+            r.psnr,
+            r.ssim,
+            r.regularizers,
+            r.gaussians,
+            r.lr_position
+        );
+    }
+    std::fs::write(path, s)
+        .map_err(|e| CommandError(format!("{}: cannot write the log: {e}", path.display())))
+}
+
+fn save_all(t: &Trainer, run: &RunFolder) -> Result<(), CommandError> {
+    checkpoint::save(t, &run.checkpoint()).map_err(CommandError::from_display)?;
+    write_log(&t.log, &run.log())?;
+    if t.log.len() >= 2 {
+        plot::save_curve(&t.log, &run.curve()).map_err(CommandError)?;
+    }
+    Ok(())
+}
+
+/// Runs `evogs train`.
+///
+/// # Errors
+/// Data, configuration, checkpoint or numerical problems (a non-finite loss or gradient stops
+/// the run; the last checkpoint stays intact).
+pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, CommandError> {
+    let run = RunFolder::new(&args.out);
+    let resuming = args.resume && run.checkpoint().is_file();
+    if args.resume && !resuming {
+        return Err(CommandError(format!(
+            "{}: no checkpoint to resume from",
+            run.checkpoint().display()
+        )));
+    }
+    let mut cfg = if resuming {
+        let text = std::fs::read_to_string(run.config())
+            .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?;
+        TrainConfig::fast()
+            .merge_toml(&text)
+            .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?
+    } else {
+        resolve_config(args)?
+    };
+    if let (true, Some(n)) = (resuming, args.iters) {
+        cfg.schedule.iterations = n;
+    }
+    let data_dir = match (&args.data, resuming) {
+        (Some(d), _) => d.clone(),
+        (None, true) => run.data_dir().map_err(CommandError)?,
+        (None, false) => shipped_scene(),
+    };
+    rep.info(&format!("data: {}", data_dir.display()));
+    let ds = load_dataset(&data_dir, &cfg, true)?;
+    let idx = supervised_indices(&ds.train, &cfg.data);
+    let views = training_views(&ds.train, &idx).map_err(CommandError)?;
+    rep.info(&format!(
+        "{} of {} training views supervised ({:?} protocol)",
+        views.len(),
+        ds.train.len(),
+        cfg.data.protocol
+    ));
+    std::fs::create_dir_all(&run.dir).map_err(|e| {
+        CommandError(format!(
+            "{}: cannot create the run folder: {e}",
+            run.dir.display()
+        ))
+    })?;
+    std::fs::write(run.config(), cfg.to_toml())
+        .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?;
+    let abs = std::fs::canonicalize(&data_dir).unwrap_or(data_dir.clone());
+    std::fs::write(run.data_ref(), abs.display().to_string())
+        .map_err(|e| CommandError(format!("{}: {e}", run.data_ref().display())))?;
+    let mut t = if resuming {
+        let t = checkpoint::resume(&run.checkpoint(), views).map_err(CommandError::from_display)?;
+        rep.info(&format!("resuming at iteration {}", t.iteration));
+        t
+    } else {
+        let pts = ds
+            .points
+            .as_ref()
+            .map(|p| (p.positions.as_slice(), p.colors.as_deref()));
+        Trainer::new(cfg.clone(), views, pts).map_err(CommandError::from_display)?
+    };
+    t.cfg.schedule.iterations = cfg.schedule.iterations;
+    rep.start("train", t.cfg.schedule.iterations);
+    rep.progress(t.iteration, "");
+    while !t.finished() {
+        let r = t.step().map_err(CommandError::from_display)?;
+        if r.dynamics_started {
+            rep.info(&format!(
+                "iteration {}: dynamics on ({:?} motion, {} Gaussians)",
+                r.iteration,
+                t.model.motion,
+                t.model.len()
+            ));
+        }
+        let psnr = crate::train::trainer::psnr_of_mse(r.losses.mse);
+        rep.progress(
+            t.iteration,
+            &format!(
+                "loss {:.4} psnr {:.2} gaussians {}",
+                r.losses.total,
+                psnr,
+                t.model.len()
+            ),
+        );
+        let every = t.cfg.schedule.checkpoint_every;
+        if every > 0 && t.iteration % every == 0 {
+            save_all(&t, &run)?;
+        }
+    }
+    save_all(&t, &run)?;
+    rep.finish();
+    let mut outcome = TrainOutcome {
+        run: run.clone(),
+        test: None,
+        gif: None,
+        iterations: t.iteration,
+        seconds: t.train_seconds,
+        gaussians: t.model.len(),
+    };
+    if args.skip_outputs {
+        return Ok(outcome);
+    }
+    if !ds.test.is_empty() {
+        rep.start("evaluate test", ds.test.len() as u64);
+        let mut m = evaluate(
+            &mut t.model,
+            &ds.test,
+            SplitName::Test,
+            None,
+            cfg.data.background,
+            t.par,
+            |d, _| rep.progress(d as u64, ""),
+        )
+        .map_err(CommandError)?;
+        rep.finish();
+        m.iterations = t.iteration;
+        m.train_seconds = t.train_seconds;
+        let json = serde_json::to_string_pretty(&m).unwrap_or_default();
+        std::fs::write(run.metrics("test"), json)
+            .map_err(|e| CommandError(format!("{}: {e}", run.metrics("test").display())))?;
+        outcome.test = Some(m);
+    }
+    let (t0, t1) = t.time_range;
+    let rargs = RenderArgs {
+        run: run.dir.clone(),
+        out: run.dir.join("render"),
+        times: (t0, t1, 40),
+        camera: CameraPath::Orbit,
+        gif: true,
+        data: Some(data_dir),
+    };
+    outcome.gif = render_sequence(&rargs, Some((&mut t.model, &ds)), rep)?.gif;
+    Ok(outcome)
+}

@@ -1,0 +1,204 @@
+//! evogs-cli: the neural field's VJP, the model backward (velocity: ODE discrete adjoint
+//! into anchors, canonical Gaussians and field; deformation: the displacement VJP), and one
+//! full training step `loss(render(integrate(field)))` per parameter group, on the scene of
+//! [`super::scene`].
+//!
+//! Entries are sampled ([`SAMPLES`] per group, all of a smaller group); a group whose
+//! analytic gradient is identically zero fails (the check could not see anything).
+
+use super::scene::{
+    GradScene, ParamGroup, central_difference, grad_scene, param_groups, sample_entries,
+    step_loss_and_grad,
+};
+use super::{GradRow, check_fn, uniform};
+use crate::model::{Model, ModelGrad, Motion};
+use crate::train::step::StepLosses;
+use core::cell::RefCell;
+use evogs_math::diff::{GradCheck, GradReport};
+use evogs_math::rng::SplitMix64;
+use evogs_ode::VectorField;
+use evogs_splat::Splats;
+
+/// Entries checked per parameter group by the tests (`evogs check-grad` checks every entry).
+pub const SAMPLES: usize = 40;
+/// Tolerance of the model checks (losses that sum many pixels: `ε^{2/3}|L|` is larger).
+pub const MODEL_TOL: GradCheck = GradCheck::new(1e-8, 1e-5);
+
+fn with_nonzero(mut row: GradRow, analytic_nonzero: bool) -> GradRow {
+    row.passed &= analytic_nonzero;
+    row
+}
+
+/// Positions and every parameter of the scene's field, through `eval`/`vjp` on Gaussian
+/// states (positions inside the field's box).
+fn neural_field_row() -> GradRow {
+    let mut f = grad_scene(Motion::Velocity, 11).model.field;
+    let mut rng = SplitMix64::new(11);
+    let n = 5;
+    f.set_count(n);
+    let np = f.n_params();
+    let mut x: Vec<f64> = (0..n)
+        .flat_map(|_| {
+            [
+                rng.uniform(-0.7, 0.7),
+                rng.uniform(-0.7, 0.7),
+                rng.uniform(-0.7, 0.7),
+            ]
+        })
+        .collect();
+    x.extend_from_slice(f.params());
+    let state = |p: &[f64]| -> Vec<f64> {
+        p.chunks(3)
+            .flat_map(|c| [c[0], c[1], c[2], 1.0, 0.0, 0.0, 0.0, -3.0, -3.0, -3.0])
+            .collect()
+    };
+    let t = 0.37;
+    let field = RefCell::new(f);
+    let rep = check_fn(
+        MODEL_TOL,
+        &x,
+        9 * n,
+        &mut |v, out| {
+            let mut f = field.borrow_mut();
+            f.params_mut().copy_from_slice(&v[3 * n..]);
+            f.eval(t, &state(&v[..3 * n]), out);
+        },
+        &mut |v, w, d| {
+            let mut f = field.borrow_mut();
+            f.params_mut().copy_from_slice(&v[3 * n..]);
+            let mut d_y = vec![0.0; 9 * n];
+            let mut d_p = vec![0.0; np];
+            f.vjp(t, &state(&v[..3 * n]), w, &mut d_y, &mut d_p);
+            for i in 0..n {
+                d[3 * i..3 * i + 3].copy_from_slice(&d_y[9 * i..9 * i + 3]);
+            }
+            d[3 * n..].copy_from_slice(&d_p);
+        },
+        21,
+    );
+    GradRow::from_reports("cli: neural field vjp (positions, all params)", &[rep], &[])
+}
+
+/// `L = Σ_t ⟨W_t, Gaussians(t)⟩` for random `W_t`: the model backward alone.
+fn linear_loss(model: &mut Model<f64>, times: &[f64], w: &[Vec<f64>]) -> f64 {
+    let mut out = Splats::default();
+    let mut st = None;
+    let mut flat = Vec::new();
+    let mut l = 0.0;
+    for (&t, w) in times.iter().zip(w) {
+        model.splats_at(t, &mut st, &mut out);
+        out.write_flat(&mut flat);
+        l += super::dot(&flat, w);
+    }
+    l
+}
+
+/// The model backward at two times, one integrated from the canonical state (t = 0.3) and
+/// one from anchor 1 (t = 0.7), so that every parameter group has a gradient.
+fn model_backward_row(motion: Motion, seed: u64, samples: usize) -> GradRow {
+    let GradScene { mut model, .. } = grad_scene(motion, seed);
+    let times = [0.3, 0.7];
+    let mut rng = SplitMix64::new(seed ^ 0x5eed);
+    let mut st = None;
+    let mut out = Splats::default();
+    let mut grad = model.zero_grad();
+    let mut ws = Vec::new();
+    for &t in &times {
+        let tape = model.splats_at(t, &mut st, &mut out);
+        let w = uniform(&mut rng, out.flat_len(), -1.0, 1.0);
+        let mut d = out.zeros_like();
+        d.read_flat(&w);
+        model.backward_at(&tape, &mut st, &d, &mut grad);
+        ws.push(w);
+    }
+    let (reports, nonzero) = groups(&mut model, &grad, samples, &mut rng, &mut |m| {
+        linear_loss(m, &times, &ws)
+    })
+    .into_iter()
+    .fold((Vec::new(), true), |(mut r, nz), (_, rep, z)| {
+        r.push(rep);
+        (r, nz && z)
+    });
+    with_nonzero(
+        GradRow::from_reports(
+            &format!("cli: {} model backward (all groups)", name(motion)),
+            &reports,
+            &[],
+        ),
+        nonzero,
+    )
+}
+
+fn name(motion: Motion) -> &'static str {
+    match motion {
+        Motion::Velocity => "velocity",
+        Motion::Deformation => "deformation",
+        Motion::Static => "static",
+    }
+}
+
+/// Central differences of `loss` against `grad` for sampled entries of every group:
+/// `(group, report, analytic not identically zero)`.
+fn groups(
+    model: &mut Model<f64>,
+    grad: &ModelGrad<f64>,
+    samples: usize,
+    rng: &mut SplitMix64,
+    loss: &mut dyn FnMut(&mut Model<f64>) -> f64,
+) -> Vec<(ParamGroup, GradReport, bool)> {
+    param_groups(model)
+        .into_iter()
+        .map(|g| {
+            let picks = sample_entries(g.len, samples, rng);
+            let analytic: Vec<f64> = picks.iter().map(|&i| (g.read)(grad, i)).collect();
+            let numeric: Vec<f64> = picks
+                .iter()
+                .map(|&i| central_difference(model, &g, i, loss))
+                .collect();
+            let nonzero = analytic.iter().any(|v| v.abs() > 1e-9);
+            (g, MODEL_TOL.check(&analytic, &numeric), nonzero)
+        })
+        .collect()
+}
+
+/// One training step (every loss term) per parameter group: the end-to-end check of
+/// `loss(render(integrate(field)))` on [`grad_scene`]`(motion, seed)`, `samples` entries per
+/// group (all of a smaller group). Returns the step's loss terms and one row per group.
+#[must_use]
+pub fn training_step_rows(motion: Motion, seed: u64, samples: usize) -> (StepLosses, Vec<GradRow>) {
+    let GradScene {
+        mut model,
+        view,
+        settings,
+    } = grad_scene(motion, seed);
+    let (losses, grad) = step_loss_and_grad(&mut model, &view, &settings);
+    let mut rng = SplitMix64::new(seed + 100);
+    let rows = groups(&mut model, &grad, samples, &mut rng, &mut |m| {
+        step_loss_and_grad(m, &view, &settings).0.total
+    })
+    .into_iter()
+    .map(|(g, rep, nonzero)| {
+        with_nonzero(
+            GradRow::from_reports(
+                &format!("cli: training step ({}): {}", name(motion), g.name),
+                &[rep],
+                &[],
+            ),
+            nonzero,
+        )
+    })
+    .collect();
+    (losses, rows)
+}
+
+/// The cli rows with `samples` entries per parameter group.
+pub(super) fn rows(samples: usize) -> Vec<GradRow> {
+    let mut rows = vec![
+        neural_field_row(),
+        model_backward_row(Motion::Velocity, 3, samples),
+        model_backward_row(Motion::Deformation, 5, samples),
+    ];
+    rows.extend(training_step_rows(Motion::Velocity, 3, samples).1);
+    rows.extend(training_step_rows(Motion::Deformation, 5, samples).1);
+    rows
+}

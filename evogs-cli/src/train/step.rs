@@ -1,0 +1,267 @@
+//! One training step's loss and exact gradient, generic over the scalar (f32 to train, f64
+//! to check by finite differences):
+//!
+//! ```text
+//! L = (1 − λ)·L1(I, Î) + λ·(1 − SSIM(I, Î))            photometric, I = render(Gaussians(t))
+//!   + w_tv·TV + w_t·TimeSmooth + w_l1·L1Time            HexPlane regularisers (dynamics on)
+//!   + λ_coh·L_coh(v at sampled Gaussians, t)            velocity coherence (velocity motion)
+//!   + λ_anchor·L_anchor(segment k)                      anchor loss (trainable waypoints)
+//! ```
+//!
+//! The gradient flows end to end: pixel cotangents → rasterizer VJP → projection/SH VJP →
+//! the Gaussians at t → the discrete adjoint of the ODE (or the displacement VJP) → anchors,
+//! canonical Gaussians and every field parameter.
+
+use crate::field::Gemm;
+use crate::field::regularize::{PlaneRegWeights, plane_regularizers};
+use crate::model::{Model, ModelGrad, Motion, Waypoints};
+use crate::train::coherence::{COHERENCE_K, coherence_loss};
+use evogs_math::{Par, Real};
+use evogs_ode::Stepper;
+use evogs_splat::loss::photometric_loss_and_grad;
+use evogs_splat::ssim::SsimWorkspace;
+use evogs_splat::{Image, PinholeCamera, PixelGrad, RenderOptions, Splats, render, render_vjp};
+
+/// One supervised view: camera, time and target image.
+#[derive(Clone, Debug)]
+pub struct ViewData<T> {
+    /// Camera.
+    pub camera: PinholeCamera<T>,
+    /// Frame time.
+    pub time: f64,
+    /// Target image.
+    pub image: Image<T>,
+}
+
+/// The loss weights and switches a step needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepSettings {
+    /// λ of `(1 − λ)·L1 + λ·(1 − SSIM)`.
+    pub lambda_ssim: f64,
+    /// HexPlane regulariser weights.
+    pub plane_reg: PlaneRegWeights,
+    /// Coherence weight (0 disables).
+    pub lambda_coherence: f64,
+    /// Anchor-loss weight.
+    pub lambda_anchor: f64,
+    /// The anchor segment whose loss is added this step, if any.
+    pub anchor_segment: Option<usize>,
+    /// Positions where the coherence loss queries the velocity: canonical positions of
+    /// sampled Gaussians, copied (detached) when sampled (fewer than two: no coherence).
+    pub coherence_points: Vec<[f64; 3]>,
+}
+
+/// The terms of one step's loss.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepLosses {
+    /// The total.
+    pub total: f64,
+    /// L1 term (unweighted).
+    pub l1: f64,
+    /// SSIM of the render.
+    pub ssim: f64,
+    /// Mean squared error of the render (for the training PSNR).
+    pub mse: f64,
+    /// Weighted plane regularisers.
+    pub planes: f64,
+    /// Weighted coherence.
+    pub coherence: f64,
+    /// Weighted anchor loss.
+    pub anchor: f64,
+}
+
+/// Reusable buffers of the step.
+#[derive(Debug)]
+pub struct StepWorkspace<T: Real> {
+    /// The Gaussians at the frame time.
+    pub splats_t: Splats<T>,
+    /// The ODE stepper (rebuilt when the Gaussian count changes).
+    pub stepper: Option<Stepper<T>>,
+    /// SSIM buffers.
+    pub ssim: SsimWorkspace<T>,
+    /// Gradient of the loss with respect to the rendered image.
+    pub d_image: Option<Image<T>>,
+}
+
+impl<T: Real> Default for StepWorkspace<T> {
+    fn default() -> Self {
+        Self {
+            splats_t: Splats::default(),
+            stepper: None,
+            ssim: SsimWorkspace::default(),
+            d_image: None,
+        }
+    }
+}
+
+/// What densification needs from a step: the 2D-mean gradients and screen radii.
+#[derive(Clone, Debug, Default)]
+pub struct ScreenStats<T> {
+    /// `∂L/∂means2d` (pixels) per Gaussian.
+    pub grad2d: Vec<[T; 2]>,
+    /// `max(r_x, r_y)` per Gaussian (0 if culled).
+    pub radius: Vec<u32>,
+    /// Image size.
+    pub size: (usize, usize),
+}
+
+/// The render options of training for a camera-independent background and SH degree.
+#[must_use]
+pub fn render_options<T: Real>(
+    background: [f32; 3],
+    sh_degree: usize,
+    par: Par,
+) -> RenderOptions<T> {
+    RenderOptions {
+        sh_degree,
+        background: background.map(|v| T::from_f64(f64::from(v))),
+        par,
+        ..RenderOptions::default()
+    }
+}
+
+/// Loss and gradient of one step on one view; **adds** the gradient into `grad` (zero it
+/// first) and returns the loss terms and the densification statistics.
+pub fn loss_and_grad<T: Gemm>(
+    model: &mut Model<T>,
+    view: &ViewData<T>,
+    opts: &RenderOptions<T>,
+    s: &StepSettings,
+    ws: &mut StepWorkspace<T>,
+    grad: &mut ModelGrad<T>,
+) -> (StepLosses, ScreenStats<T>) {
+    let mut splats_t = core::mem::take(&mut ws.splats_t);
+    let tape = model.splats_at(view.time, &mut ws.stepper, &mut splats_t);
+    let fwd = render(&splats_t, &view.camera, opts);
+    let (w, h) = (view.image.width(), view.image.height());
+    let mut d_image = ws
+        .d_image
+        .take()
+        .filter(|d| d.width() == w && d.height() == h)
+        .unwrap_or_else(|| Image::new(w, h));
+    d_image.data_mut().fill(T::ZERO);
+    let photo = photometric_loss_and_grad(
+        &mut ws.ssim,
+        &fwd.raster.rgb,
+        &view.image,
+        T::from_f64(s.lambda_ssim),
+        T::ONE,
+        &mut d_image,
+        opts.par,
+    );
+    let g = render_vjp(
+        &splats_t,
+        &view.camera,
+        opts,
+        &fwd,
+        &PixelGrad {
+            rgb: d_image.data(),
+            alpha: None,
+            depth: None,
+        },
+    );
+    model.backward_at(&tape, &mut ws.stepper, &g.splats, grad);
+    let mse = evogs_splat::metrics::mse(&fwd.raster.rgb, &view.image).to_f64();
+    let mut losses = StepLosses {
+        l1: photo.l1.to_f64(),
+        ssim: photo.ssim.to_f64(),
+        mse,
+        ..StepLosses::default()
+    };
+    losses.total = photo.total.to_f64();
+    let dynamic = model.dynamics_active && model.motion != Motion::Static;
+    if dynamic {
+        let hex = model.field.hexplane().clone();
+        let range = model.field.grid_range();
+        let v = plane_regularizers(
+            &hex,
+            &model.field.params()[range.clone()],
+            &s.plane_reg,
+            &mut grad.field[range],
+        );
+        losses.planes = v.total;
+    }
+    if dynamic
+        && model.motion == Motion::Velocity
+        && s.lambda_coherence > 0.0
+        && s.coherence_points.len() > 1
+    {
+        losses.coherence = coherence_term(model, view.time, s, grad);
+    }
+    if let (true, Some(k)) = (
+        dynamic && model.motion == Motion::Velocity && model.waypoints == Waypoints::Trainable,
+        s.anchor_segment,
+    ) {
+        losses.anchor = model.anchor_loss(k, s.lambda_anchor, &mut ws.stepper, grad);
+    }
+    losses.total += losses.planes + losses.coherence + losses.anchor;
+    let stats = ScreenStats {
+        grad2d: g.raster.means2d.iter().map(|v| [v.x, v.y]).collect(),
+        radius: fwd.pre.radii.iter().map(|r| r[0].max(r[1])).collect(),
+        size: (w, h),
+    };
+    ws.splats_t = splats_t;
+    ws.d_image = Some(d_image);
+    (losses, stats)
+}
+
+/// The velocity-coherence term at the sampled (detached) positions, with its gradient into
+/// the field parameters.
+fn coherence_term<T: Gemm>(
+    model: &mut Model<T>,
+    t: f64,
+    s: &StepSettings,
+    grad: &mut ModelGrad<T>,
+) -> f64 {
+    let m = s.coherence_points.len();
+    let pos: Vec<T> = s
+        .coherence_points
+        .iter()
+        .flatten()
+        .map(|&v| T::from_f64(v))
+        .collect();
+    let mut out = vec![T::ZERO; 9 * m];
+    let tt = T::from_f64(t);
+    model.field.eval_batch(tt, &pos, 3, m, &mut out);
+    let v64: Vec<[f64; 3]> = out
+        .chunks(9)
+        .map(|c| [c[0].to_f64(), c[1].to_f64(), c[2].to_f64()])
+        .collect();
+    let mut dv = vec![[0.0; 3]; m];
+    let l = coherence_loss(&s.coherence_points, &v64, COHERENCE_K, &mut dv);
+    let mut d_out = vec![T::ZERO; 9 * m];
+    for (i, d) in dv.iter().enumerate() {
+        for a in 0..3 {
+            d_out[9 * i + a] = T::from_f64(s.lambda_coherence * d[a]);
+        }
+    }
+    let mut d_pos = vec![T::ZERO; 3 * m];
+    model
+        .field
+        .vjp_batch(tt, &pos, 3, m, &d_out, &mut d_pos, 3, &mut grad.field);
+    s.lambda_coherence * l
+}
+
+/// Accumulates a step's screen statistics into the densification accumulators:
+/// `accum += |∂L/∂m|` in 3DGS's NDC units (`(g_x·W/2, g_y·H/2)`) and `count += 1` for
+/// Gaussians visible in this view, and `max_radius = max(max_radius, radius)`.
+pub fn accumulate_screen_stats<T: Real>(
+    stats: &ScreenStats<T>,
+    accum: &mut [f32],
+    count: &mut [u32],
+    max_radius: &mut [u32],
+) {
+    #[allow(clippy::cast_precision_loss, reason = "image sizes are small")]
+    let (sx, sy) = (0.5 * stats.size.0 as f64, 0.5 * stats.size.1 as f64);
+    for (i, (g, &r)) in stats.grad2d.iter().zip(&stats.radius).enumerate() {
+        if r > 0 {
+            let n = (g[0].to_f64() * sx).hypot(g[1].to_f64() * sy);
+            #[allow(clippy::cast_possible_truncation, reason = "statistics in f32")]
+            {
+                accum[i] += n as f32;
+            }
+            count[i] += 1;
+            max_radius[i] = max_radius[i].max(r);
+        }
+    }
+}

@@ -1,0 +1,417 @@
+//! The training loop: [`Trainer`].
+//!
+//! One iteration: pick the next supervised view (a fresh random permutation each epoch),
+//! compute the loss and its exact gradient ([`loss_and_grad`]), refuse non-finite values,
+//! take an Adam step, then the periodic tasks: SH-degree increments, densification and
+//! pruning, opacity resets, snapshot-anchor refreshes. The first `warmup_iters` iterations
+//! are static (plain 3DGS); then the dynamics are switched on and the anchors are
+//! initialised by integrating the field from the canonical state.
+
+use super::densify::{DensifyReport, DensifyStats, densify_and_prune, reset_opacity};
+use super::optim::{LearningRates, Optimizer, StateGroups};
+use super::step::{
+    StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats, loss_and_grad,
+    render_options,
+};
+use crate::config::TrainConfig;
+use crate::field::regularize::PlaneRegWeights;
+use crate::field::{NeuralField, TimeMapping};
+use crate::model::anchors::anchor_times;
+use crate::model::init::{gaussians_from_points, random_points};
+use crate::model::{Model, ModelGrad, Motion, Waypoints};
+use evogs_math::Par;
+use evogs_math::rng::SplitMix64;
+use evogs_ode::Method;
+use std::time::Instant;
+
+/// Initial point positions with optional colours.
+pub type InitPoints<'a> = (&'a [[f32; 3]], Option<&'a [[f32; 3]]>);
+
+/// Why training stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum TrainError {
+    /// A NaN or infinity appeared; nothing of this iteration was applied.
+    #[error(
+        "non-finite {what} at iteration {iteration}; the model was not updated (the last checkpoint is intact)"
+    )]
+    NonFinite {
+        /// Iteration.
+        iteration: u64,
+        /// `loss` or `gradient`.
+        what: &'static str,
+    },
+    /// The configuration or the data cannot be used.
+    #[error("{0}")]
+    Setup(String),
+}
+
+/// One line of the training log.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LogRow {
+    /// Iteration.
+    pub iteration: u64,
+    /// Training seconds so far.
+    pub seconds: f64,
+    /// Total loss.
+    pub loss: f64,
+    /// L1 term.
+    pub l1: f64,
+    /// PSNR of the training view (dB).
+    pub psnr: f64,
+    /// SSIM of the training view.
+    pub ssim: f64,
+    /// Weighted regularisers (planes + coherence + anchor).
+    pub regularizers: f64,
+    /// Number of Gaussians.
+    pub gaussians: usize,
+    /// Position learning rate.
+    pub lr_position: f64,
+}
+
+/// What one iteration did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// Iteration number (1-based).
+    pub iteration: u64,
+    /// Loss terms.
+    pub losses: StepLosses,
+    /// Densification, if it ran.
+    pub densify: Option<DensifyReport>,
+    /// Whether the dynamics were switched on at this iteration.
+    pub dynamics_started: bool,
+}
+
+/// A training run in memory.
+#[derive(Debug)]
+pub struct Trainer {
+    /// The resolved configuration.
+    pub cfg: TrainConfig,
+    /// The model.
+    pub model: Model<f32>,
+    /// Adam states.
+    pub optim: Optimizer,
+    /// Supervised training views.
+    pub views: Vec<ViewData<f32>>,
+    /// Scene extent (learning-rate scale).
+    pub extent: f64,
+    /// Training time range.
+    pub time_range: (f64, f64),
+    /// Iterations done.
+    pub iteration: u64,
+    /// Seconds spent in iterations.
+    pub train_seconds: f64,
+    /// Log rows so far.
+    pub log: Vec<LogRow>,
+    /// Densification accumulators.
+    pub stats: DensifyStats,
+    /// Random state (view order, coherence samples, split offsets).
+    pub rng: SplitMix64,
+    /// Current view permutation and position in it.
+    pub order: Vec<usize>,
+    /// Position in `order`.
+    pub order_pos: usize,
+    /// Parallelism.
+    pub par: Par,
+    ws: StepWorkspace<f32>,
+    grad: Option<ModelGrad<f32>>,
+}
+
+impl Trainer {
+    /// A new run: initial Gaussians from `points` (else random), the field over their
+    /// bounding box, the optimiser.
+    ///
+    /// # Errors
+    /// No views, or an invalid configuration.
+    pub fn new(
+        cfg: TrainConfig,
+        views: Vec<ViewData<f32>>,
+        points: Option<InitPoints<'_>>,
+    ) -> Result<Self, TrainError> {
+        cfg.validate().map_err(TrainError::Setup)?;
+        if views.is_empty() {
+            return Err(TrainError::Setup(
+                "no supervised training views (check the protocol and split time)".into(),
+            ));
+        }
+        let mut rng = SplitMix64::new(cfg.seed);
+        let (t0, t1) = super::views::time_range(&views);
+        let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
+        let random;
+        let (pts, cols) = match points {
+            Some((p, c)) if cfg.init.use_points && !p.is_empty() => (p, c),
+            _ => {
+                random = random_points(cfg.init.random_points, cfg.init.random_extent, &mut rng);
+                (random.as_slice(), None)
+            }
+        };
+        let canonical = gaussians_from_points(pts, cols, cfg.init.sh_degree, &mut rng);
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in pts {
+            for a in 0..3 {
+                lo[a] = lo[a].min(f64::from(p[a]));
+                hi[a] = hi[a].max(f64::from(p[a]));
+            }
+        }
+        for a in 0..3 {
+            let m = cfg.init.aabb_margin * (hi[a] - lo[a]).max(1e-3);
+            lo[a] -= m;
+            hi[a] += m;
+        }
+        let time = if cfg.dynamics.time_mapping == "raw" {
+            TimeMapping::Raw
+        } else {
+            TimeMapping::Normalized {
+                t_min: t0,
+                t_max: t1,
+            }
+        };
+        let field = NeuralField::new(&cfg.field, lo, hi, time, cfg.seed ^ 0x5eed);
+        let method: Method = cfg
+            .dynamics
+            .method
+            .parse()
+            .map_err(|e| TrainError::Setup(format!("dynamics.method: {e}")))?;
+        let model = Model::new(
+            canonical,
+            field,
+            cfg.dynamics.motion,
+            cfg.dynamics.waypoints,
+            method,
+            cfg.dynamics.step_fraction * (t1 - t0),
+            anchor_times(t0, t1, cfg.dynamics.anchors),
+        );
+        let optim = Optimizer::new(&model);
+        let n = model.len();
+        let extent = super::views::camera_extent(&views);
+        let par = Par::best();
+        let mut t = Self {
+            cfg,
+            model,
+            optim,
+            views,
+            extent,
+            time_range: (t0, t1),
+            iteration: 0,
+            train_seconds: 0.0,
+            log: Vec::new(),
+            stats: DensifyStats::new(n),
+            rng,
+            order: Vec::new(),
+            order_pos: 0,
+            par,
+            ws: StepWorkspace::default(),
+            grad: None,
+        };
+        t.model.field.set_par(par);
+        if t.model.motion == Motion::Static {
+            t.model.dynamics_active = false;
+        }
+        Ok(t)
+    }
+
+    /// Whether all iterations are done.
+    #[must_use]
+    pub fn finished(&self) -> bool {
+        self.iteration >= self.cfg.schedule.iterations
+    }
+
+    /// The active SH degree at the current iteration.
+    #[must_use]
+    pub fn active_sh_degree(&self) -> usize {
+        let steps = usize::try_from(self.iteration / self.cfg.schedule.sh_degree_interval.max(1))
+            .unwrap_or(usize::MAX);
+        steps.min(self.model.canonical.sh_degree)
+    }
+
+    fn next_view(&mut self) -> usize {
+        if self.order_pos >= self.order.len() {
+            self.order = (0..self.views.len()).collect();
+            for i in (1..self.order.len()).rev() {
+                let j = self.rng.below(i + 1);
+                self.order.swap(i, j);
+            }
+            self.order_pos = 0;
+        }
+        self.order_pos += 1;
+        self.order[self.order_pos - 1]
+    }
+
+    /// Switches the dynamics on: anchors start as the state integrated from the canonical one.
+    fn start_dynamics(&mut self) {
+        self.model.dynamics_active = true;
+        self.model.refresh_anchors_from_start(&mut self.ws.stepper);
+        let n = self.model.len();
+        self.optim.anchors = self
+            .model
+            .anchors
+            .iter()
+            .map(|_| StateGroups::new(n))
+            .collect();
+    }
+
+    fn settings(&mut self) -> StepSettings {
+        let l = &self.cfg.loss;
+        let k = self.model.anchor_times.len();
+        let anchor_segment = (self.model.waypoints == Waypoints::Trainable
+            && k > 1
+            && l.anchor_every > 0
+            && self.iteration.is_multiple_of(l.anchor_every))
+        .then(|| usize::try_from(self.iteration / l.anchor_every).unwrap_or(0) % (k - 1));
+        let n = self.model.len();
+        let m = l.coherence_samples.min(n);
+        let coherence_points = if l.lambda_coherence > 0.0
+            && self.model.dynamics_active
+            && self.model.motion == Motion::Velocity
+            && m > 1
+        {
+            // Sample without replacement (partial Fisher–Yates on a scratch index list).
+            let mut idx: Vec<usize> = (0..n).collect();
+            for i in 0..m {
+                let j = i + self.rng.below(n - i);
+                idx.swap(i, j);
+            }
+            idx[..m]
+                .iter()
+                .map(|&i| self.model.canonical.means[i].cast::<f64>().to_array())
+                .collect()
+        } else {
+            Vec::new()
+        };
+        StepSettings {
+            lambda_ssim: l.lambda_ssim,
+            plane_reg: PlaneRegWeights {
+                plane_tv: l.plane_tv,
+                time_smoothness: l.time_smoothness,
+                l1_time: l.l1_time,
+            },
+            lambda_coherence: l.lambda_coherence,
+            lambda_anchor: l.lambda_anchor,
+            anchor_segment,
+            coherence_points,
+        }
+    }
+
+    /// One iteration.
+    ///
+    /// # Errors
+    /// [`TrainError::NonFinite`] if the loss or a gradient is not finite (nothing applied).
+    pub fn step(&mut self) -> Result<StepReport, TrainError> {
+        let start = Instant::now();
+        self.iteration += 1;
+        let it = self.iteration;
+        let mut report = StepReport {
+            iteration: it,
+            ..StepReport::default()
+        };
+        if it == self.cfg.schedule.warmup_iters + 1
+            && self.model.motion != Motion::Static
+            && !self.model.dynamics_active
+        {
+            self.start_dynamics();
+            report.dynamics_started = true;
+        }
+        let vi = self.next_view();
+        let settings = self.settings();
+        let opts = render_options(self.cfg.data.background, self.active_sh_degree(), self.par);
+        let mut grad = match self.grad.take() {
+            Some(mut g) if g.canonical.len() == self.model.len() => {
+                g.fill_zero();
+                g
+            }
+            _ => self.model.zero_grad(),
+        };
+        let (losses, stats) = loss_and_grad(
+            &mut self.model,
+            &self.views[vi],
+            &opts,
+            &settings,
+            &mut self.ws,
+            &mut grad,
+        );
+        if !losses.total.is_finite() {
+            self.iteration -= 1;
+            return Err(TrainError::NonFinite {
+                iteration: it,
+                what: "loss",
+            });
+        }
+        if !grad.is_finite() {
+            self.iteration -= 1;
+            return Err(TrainError::NonFinite {
+                iteration: it,
+                what: "gradient",
+            });
+        }
+        let d = &self.cfg.densify;
+        if it <= d.until_iter {
+            accumulate_screen_stats(
+                &stats,
+                &mut self.stats.accum,
+                &mut self.stats.count,
+                &mut self.stats.max_radius,
+            );
+        }
+        let dyn_start = if self.model.motion == Motion::Static {
+            0
+        } else {
+            self.cfg.schedule.warmup_iters
+        };
+        let lr = LearningRates::at(&self.cfg.optim, self.extent, it, dyn_start);
+        self.optim.step(&mut self.model, &grad, &lr);
+        self.grad = Some(grad);
+        let s = &self.cfg.schedule;
+        if self.model.dynamics_active
+            && self.model.waypoints == Waypoints::Snapshot
+            && s.snapshot_every > 0
+            && it.is_multiple_of(s.snapshot_every)
+        {
+            self.model.refresh_anchors_from_start(&mut self.ws.stepper);
+        }
+        if it >= d.from_iter && it <= d.until_iter && it.is_multiple_of(d.interval) {
+            let prune_big = d.opacity_reset_interval > 0 && it > d.opacity_reset_interval;
+            let d = d.clone();
+            report.densify = Some(densify_and_prune(
+                &mut self.model,
+                &mut self.optim,
+                &mut self.stats,
+                &d,
+                self.extent,
+                prune_big,
+                &mut self.rng,
+            ));
+        }
+        let d = &self.cfg.densify;
+        if d.opacity_reset_interval > 0
+            && it <= d.until_iter
+            && it.is_multiple_of(d.opacity_reset_interval)
+        {
+            reset_opacity(&mut self.model, &mut self.optim);
+        }
+        self.train_seconds += start.elapsed().as_secs_f64();
+        if it.is_multiple_of(self.cfg.schedule.log_every) || it == self.cfg.schedule.iterations {
+            self.log.push(LogRow {
+                iteration: it,
+                seconds: self.train_seconds,
+                loss: losses.total,
+                l1: losses.l1,
+                psnr: psnr_of_mse(losses.mse),
+                ssim: losses.ssim,
+                regularizers: losses.planes + losses.coherence + losses.anchor,
+                gaussians: self.model.len(),
+                lr_position: lr.position,
+            });
+        }
+        report.losses = losses;
+        Ok(report)
+    }
+}
+
+/// `10·log10(1/mse)` (∞ for a perfect match).
+#[must_use]
+pub fn psnr_of_mse(mse: f64) -> f64 {
+    if mse > 0.0 {
+        -10.0 * mse.log10()
+    } else {
+        f64::INFINITY
+    }
+}

@@ -1,0 +1,122 @@
+//! Short training runs on the shipped scene at 50×50: the loss must drop clearly, and a run
+//! resumed from a checkpoint must continue bit for bit like an uninterrupted one.
+
+use evogs_cli::app::paths::shipped_scene;
+use evogs_cli::config::TrainConfig;
+use evogs_cli::data::{Dataset, LoadOptions};
+use evogs_cli::field::HexPlaneConfig;
+use evogs_cli::run::checkpoint;
+use evogs_cli::train::step::ViewData;
+use evogs_cli::train::trainer::Trainer;
+use evogs_cli::train::views::training_views;
+
+fn tiny_config() -> TrainConfig {
+    let mut c = TrainConfig::fast();
+    c.data.downscale = 4;
+    c.field.hexplane = HexPlaneConfig {
+        channels: 4,
+        resolution: [8, 8, 8, 6],
+        multires: vec![1, 2],
+    };
+    c.field.width = 16;
+    c.schedule.warmup_iters = 40;
+    c.schedule.iterations = 90;
+    c.schedule.log_every = 1;
+    c.densify.from_iter = 20;
+    c.densify.until_iter = 60;
+    c.densify.interval = 20;
+    c.densify.opacity_reset_interval = 0;
+    c.loss.coherence_samples = 64;
+    c.loss.anchor_every = 5;
+    c
+}
+
+/// Training views, point positions and point colours.
+type Data = (Vec<ViewData<f32>>, Vec<[f32; 3]>, Vec<[f32; 3]>);
+
+fn data(c: &TrainConfig) -> Data {
+    let ds = Dataset::load(
+        &shipped_scene(),
+        &LoadOptions {
+            downscale: c.data.downscale,
+            ..LoadOptions::default()
+        },
+    )
+    .expect("scene");
+    let views = training_views(&ds.train, &(0..ds.train.len()).collect::<Vec<_>>()).expect("views");
+    let pts = ds.points.expect("points");
+    // A subsample of the cloud keeps the test fast.
+    let pos: Vec<[f32; 3]> = pts.positions.iter().step_by(4).copied().collect();
+    let col: Vec<[f32; 3]> = pts
+        .colors
+        .expect("colours")
+        .iter()
+        .step_by(4)
+        .copied()
+        .collect();
+    (views, pos, col)
+}
+
+#[test]
+fn a_short_run_lowers_the_loss_clearly() {
+    let c = tiny_config();
+    let (views, pos, col) = data(&c);
+    let mut t = Trainer::new(c, views, Some((&pos, Some(&col)))).expect("trainer");
+    let mut l1 = Vec::new();
+    while !t.finished() {
+        let r = t.step().expect("finite step");
+        l1.push(r.losses.l1);
+    }
+    let first: f64 = l1[..10].iter().sum::<f64>() / 10.0;
+    let last: f64 = l1[l1.len() - 10..].iter().sum::<f64>() / 10.0;
+    // The point-cloud initialisation already places the surfaces, so the first iterations
+    // start well below a blank image's error; a quarter off within 90 iterations at 50×50 is
+    // a clear, repeatable drop (measured: 0.073 → 0.047).
+    assert!(last < 0.75 * first, "L1 fell from {first:.4} to {last:.4}");
+    assert!(t.model.dynamics_active, "the dynamics were switched on");
+    assert!(t.log.iter().all(|r| r.loss.is_finite()), "finite log");
+}
+
+#[test]
+fn resume_continues_bit_for_bit() {
+    let mut c = tiny_config();
+    c.schedule.iterations = 56;
+    c.schedule.warmup_iters = 30;
+    c.densify.until_iter = 50;
+    let (views, pos, col) = data(&c);
+    let dir = std::env::temp_dir().join(format!("evogs-resume-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let ck = dir.join("checkpoint.bin");
+    let mut a = Trainer::new(c.clone(), views.clone(), Some((&pos, Some(&col)))).expect("trainer");
+    while !a.finished() {
+        a.step().expect("step");
+        if a.iteration == 41 {
+            checkpoint::save(&a, &ck).expect("save");
+        }
+    }
+    let mut b = checkpoint::resume(&ck, views).expect("resume");
+    assert_eq!(b.iteration, 41, "resumed iteration");
+    while !b.finished() {
+        b.step().expect("step");
+    }
+    assert_eq!(
+        a.model.canonical, b.model.canonical,
+        "canonical Gaussians identical"
+    );
+    assert_eq!(a.model.anchors, b.model.anchors, "anchors identical");
+    assert!(
+        a.model.field.params() == b.model.field.params(),
+        "field identical"
+    );
+    assert_eq!(a.optim, b.optim, "optimiser identical");
+    assert_eq!(
+        a.log.last().map(|r| r.loss.to_bits()),
+        b.log.last().map(|r| r.loss.to_bits()),
+        "same final loss"
+    );
+    // Round trip of the archive itself.
+    checkpoint::save(&b, &ck).expect("save");
+    let l = checkpoint::load_model(&ck).expect("load");
+    assert_eq!(l.model.canonical, b.model.canonical, "model round trip");
+    std::fs::remove_dir_all(dir).ok();
+}
