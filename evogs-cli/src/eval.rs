@@ -10,7 +10,7 @@ use crate::train::views::view_camera;
 use evogs_math::Par;
 use evogs_splat::metrics::mse;
 use evogs_splat::ssim::SsimWorkspace;
-use evogs_splat::{Image, PinholeCamera, Splats, render};
+use evogs_splat::{Image, PinholeCamera, Splats, TiledRasterizer, render_tiled};
 use serde::{Deserialize, Serialize};
 
 /// Metrics of one frame.
@@ -57,7 +57,9 @@ pub fn render_frame(
     let mut stepper = None;
     let _tape = model.splats_at(t, &mut stepper, scratch);
     let opts = render_options(background, model.canonical.sh_degree, par);
-    let mut img = render(scratch, camera, &opts).raster.rgb;
+    let mut img = render_tiled(scratch, camera, &opts, &mut TiledRasterizer::new())
+        .raster
+        .rgb;
     for v in img.data_mut() {
         *v = v.clamp(0.0, 1.0);
     }

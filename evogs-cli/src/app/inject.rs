@@ -22,7 +22,7 @@ use crate::train::views::view_camera;
 use evogs_math::{Par, Vec3};
 use evogs_ode::algebra::{Edge, Mask, Mix, ParticleFrame, RigidRotation, Translation};
 use evogs_ode::{Stepper, VectorField, integrate};
-use evogs_splat::{PinholeCamera, Splats, render};
+use evogs_splat::{PinholeCamera, Splats, TiledRasterizer, render_tiled};
 use std::path::PathBuf;
 
 /// The injected field.
@@ -190,6 +190,7 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<Vec<PathBuf>,
     let mut stepper = Stepper::new(model.method, gaussian_layout(n));
     let opts = render_options([1.0, 1.0, 1.0], model.canonical.sh_degree, Par::best());
     let mut splats = Splats::default();
+    let mut rasterizer = TiledRasterizer::new();
     let mut images = Vec::with_capacity(count);
     let mut frames = Vec::with_capacity(count);
     rep.start("inject", count as u64);
@@ -214,7 +215,9 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<Vec<PathBuf>,
         let mut mixed = Mix::new(args.mask.clone(), injected, &mut model.field, frame);
         integrate(&mut mixed, &mut stepper, &grid, &mut y);
         model.splats_from_state(&y, &mut splats);
-        let mut img = render(&splats, cam, &opts).raster.rgb;
+        let mut img = render_tiled(&splats, cam, &opts, &mut rasterizer)
+            .raster
+            .rgb;
         for v in img.data_mut() {
             *v = v.clamp(0.0, 1.0);
         }

@@ -20,7 +20,10 @@ use evogs_math::{Par, Real};
 use evogs_ode::Stepper;
 use evogs_splat::loss::photometric_loss_and_grad;
 use evogs_splat::ssim::SsimWorkspace;
-use evogs_splat::{Image, PinholeCamera, PixelGrad, RenderOptions, Splats, render, render_vjp};
+use evogs_splat::{
+    CameraGrad, DensifyStats, Image, PinholeCamera, PixelGrad, RasterInputGrad, Render, RenderGrad,
+    RenderOptions, Splats, TiledRasterizer, render_tiled_into, render_tiled_vjp_into,
+};
 
 /// One supervised view: camera, time and target image.
 #[derive(Clone, Debug)]
@@ -81,6 +84,12 @@ pub struct StepWorkspace<T: Real> {
     pub ssim: SsimWorkspace<T>,
     /// Gradient of the loss with respect to the rendered image.
     pub d_image: Option<Image<T>>,
+    /// The tiled rasterizer and its buffers.
+    pub rasterizer: TiledRasterizer<T>,
+    /// The last render (buffers reused).
+    pub render: Option<Render<T>>,
+    /// The last render gradient (buffers reused).
+    pub render_grad: Option<RenderGrad<T>>,
 }
 
 impl<T: Real> Default for StepWorkspace<T> {
@@ -90,6 +99,9 @@ impl<T: Real> Default for StepWorkspace<T> {
             stepper: None,
             ssim: SsimWorkspace::default(),
             d_image: None,
+            rasterizer: TiledRasterizer::new(),
+            render: None,
+            render_grad: None,
         }
     }
 }
@@ -132,7 +144,15 @@ pub fn loss_and_grad<T: Gemm>(
 ) -> (StepLosses, ScreenStats<T>) {
     let mut splats_t = core::mem::take(&mut ws.splats_t);
     let tape = model.splats_at(view.time, &mut ws.stepper, &mut splats_t);
-    let fwd = render(&splats_t, &view.camera, opts);
+    let mut fwd = ws.render.take().unwrap_or_else(|| Render {
+        pre: evogs_splat::Preprocessed::default(),
+        raster: evogs_splat::RasterOutput::new(
+            view.camera.width,
+            view.camera.height,
+            opts.background,
+        ),
+    });
+    render_tiled_into(&splats_t, &view.camera, opts, &mut ws.rasterizer, &mut fwd);
     let (w, h) = (view.image.width(), view.image.height());
     let mut d_image = ws
         .d_image
@@ -149,16 +169,25 @@ pub fn loss_and_grad<T: Gemm>(
         &mut d_image,
         opts.par,
     );
-    let g = render_vjp(
+    let mut g = ws.render_grad.take().unwrap_or_else(|| RenderGrad {
+        splats: Splats::default(),
+        camera: CameraGrad::zero(),
+        raster: RasterInputGrad::default(),
+        background: [T::ZERO; 3],
+        densify: DensifyStats::default(),
+    });
+    render_tiled_vjp_into(
         &splats_t,
         &view.camera,
         opts,
+        &mut ws.rasterizer,
         &fwd,
         &PixelGrad {
             rgb: d_image.data(),
             alpha: None,
             depth: None,
         },
+        &mut g,
     );
     model.backward_at(&tape, &mut ws.stepper, &g.splats, grad);
     let mse = evogs_splat::metrics::mse(&fwd.raster.rgb, &view.image).to_f64();
@@ -202,6 +231,8 @@ pub fn loss_and_grad<T: Gemm>(
     };
     ws.splats_t = splats_t;
     ws.d_image = Some(d_image);
+    ws.render = Some(fwd);
+    ws.render_grad = Some(g);
     (losses, stats)
 }
 
