@@ -18,6 +18,7 @@ fn field() -> NeuralField<f32> {
         },
         width: 64,
         output_scales: [10.0, 1.0, 1.0],
+        zero_init_output: false,
     };
     NeuralField::new(
         &cfg,

@@ -16,6 +16,7 @@ use evogs_cli::model::Motion;
 use evogs_cli::verify::{LEGEND, verify_file};
 use evogs_ode::Method;
 use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal as _;
 use std::path::PathBuf;
 
 /// EvoGS on the CPU: 4D Gaussian splatting as a learned dynamical system.
@@ -164,13 +165,25 @@ enum Cmd {
     },
 }
 
-/// Progress bars and messages on the terminal.
+/// Progress bars and messages on the terminal; when stderr is not a terminal (logs, CI), a
+/// progress line every 5% of a phase instead of a bar.
 struct Terminal {
     bar: Option<ProgressBar>,
+    phase: String,
+    total: u64,
+    next_line: u64,
+    started: std::time::Instant,
 }
 
 impl Reporter for Terminal {
     fn start(&mut self, phase: &str, total: u64) {
+        self.phase = phase.to_string();
+        self.total = total;
+        self.next_line = 0;
+        self.started = std::time::Instant::now();
+        if !std::io::stderr().is_terminal() {
+            return;
+        }
         let bar = ProgressBar::new(total);
         bar.set_style(
             ProgressStyle::with_template("{prefix:>14} [{bar:30}] {pos}/{len} {msg} (eta {eta})")
@@ -181,6 +194,14 @@ impl Reporter for Terminal {
         self.bar = Some(bar);
     }
     fn progress(&mut self, done: u64, message: &str) {
+        if self.bar.is_none() && done >= self.next_line && self.total > 0 {
+            let secs = self.started.elapsed().as_secs_f64();
+            eprintln!(
+                "{} {done}/{} ({secs:.0} s) {message}",
+                self.phase, self.total
+            );
+            self.next_line = done + (self.total / 20).max(1);
+        }
         if let Some(b) = &self.bar {
             b.set_position(done);
             if !message.is_empty() {
@@ -203,7 +224,13 @@ impl Reporter for Terminal {
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
-    let mut term = Terminal { bar: None };
+    let mut term = Terminal {
+        bar: None,
+        phase: String::new(),
+        total: 0,
+        next_line: 0,
+        started: std::time::Instant::now(),
+    };
     match cli.cmd {
         Cmd::Train {
             data,

@@ -17,6 +17,7 @@ fn small_field(time: TimeMapping) -> NeuralField<f64> {
         },
         width: 8,
         output_scales: [10.0, 1.0, 1.0],
+        zero_init_output: false,
     };
     let mut f = NeuralField::new(&cfg, [-1.0, -1.5, -0.5], [1.0, 1.0, 1.5], time, 7);
     // Perturb the time planes away from 1 so that time actually matters.
@@ -192,4 +193,53 @@ fn parallel_evaluation_is_bitwise_sequential() {
         results.push((out, d_y, d_p));
     }
     assert!(results[0] == results[1], "Seq and Rayon differ");
+}
+
+#[test]
+fn stored_evaluations_give_bitwise_identical_outputs_and_vjps() {
+    let n = 600; // several chunks
+    let y = states(n, 29);
+    let mut rng = SplitMix64::new(31);
+    let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();
+    let run = |capacity: usize, interleave: bool| {
+        let mut f = small_field(TimeMapping::Normalized {
+            t_min: 0.0,
+            t_max: 1.0,
+        });
+        f.set_count(n);
+        f.set_eval_capacity(capacity);
+        let mut outs = Vec::new();
+        let mut grads = Vec::new();
+        // Evaluate at three times, then take the VJPs in reverse (as the discrete adjoint does),
+        // with a parameter change in between when `interleave` (which must invalidate).
+        for &t in &[0.1, 0.4, 0.7] {
+            let mut out = vec![0.0; n * 9];
+            f.eval(t, &y, &mut out);
+            outs.push(out);
+        }
+        if interleave {
+            let v = f.params()[3];
+            f.params_mut()[3] = v; // same value, but a mutable access invalidates
+        }
+        for &t in &[0.7, 0.4, 0.1] {
+            let mut out = vec![0.0; n * 9];
+            f.eval(t, &y, &mut out); // a repeated evaluation: served from storage when possible
+            outs.push(out);
+            let mut d_y = vec![0.0; n * 9];
+            let mut d_p = vec![0.0; f.n_params()];
+            f.vjp(t, &y, &w, &mut d_y, &mut d_p);
+            grads.push((d_y, d_p));
+        }
+        (outs, grads)
+    };
+    let plain = run(1, false);
+    assert!(
+        run(3, false) == plain,
+        "reusing stored evaluations changes nothing"
+    );
+    assert!(
+        run(3, true) == plain,
+        "parameter changes invalidate stored evaluations"
+    );
+    assert!(run(2, false) == plain, "evictions are handled");
 }

@@ -96,8 +96,16 @@ impl Mlp {
         self.scales_offset() + 3
     }
 
-    /// Xavier-uniform weights, zero biases, output scales `scales`.
-    pub fn init_params<T: Real>(&self, rng: &mut SplitMix64, scales: [f64; 3], out: &mut [T]) {
+    /// Xavier-uniform weights, zero biases, output scales `scales`; with `zero_output` the
+    /// last layer of each head starts at zero (the field is then exactly zero at first, and
+    /// only the last layers receive gradient in the first step).
+    pub fn init_params<T: Real>(
+        &self,
+        rng: &mut SplitMix64,
+        scales: [f64; 3],
+        zero_output: bool,
+        out: &mut [T],
+    ) {
         let (f, w) = (self.input, self.width);
         let mut xavier = |dst: &mut [T], fan_in: usize, fan_out: usize| {
             #[allow(clippy::cast_precision_loss, reason = "layer sizes are small")]
@@ -112,6 +120,11 @@ impl Mlp {
             xavier(&mut out[s..s + w * w], w, w);
             let s = self.w2() + h * 3 * w;
             xavier(&mut out[s..s + 3 * w], w, 3);
+        }
+        if zero_output {
+            for v in &mut out[self.w2()..self.b2()] {
+                *v = T::ZERO;
+            }
         }
         for v in &mut out[self.b0()..self.w1()] {
             *v = T::ZERO;

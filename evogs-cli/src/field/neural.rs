@@ -43,19 +43,27 @@ pub struct NeuralFieldConfig {
     pub width: usize,
     /// Initial output scales (velocity, angular velocity, log-scale rate).
     pub output_scales: [f64; 3],
+    /// Start the last layer of every head at zero (the initial field is exactly zero, so
+    /// switching the dynamics on does not disturb the static fit); the released code uses
+    /// Xavier there too (`false`).
+    #[serde(default)]
+    pub zero_init_output: bool,
 }
 
 /// One work item of the batched VJP: chunk index, MLP gradient partial, lookups, sample
-/// gradients and position gradients of the chunk.
+/// gradients, position gradients and the activations of the chunk.
 type VjpItem<'a, T> = (
     usize,
     (
-        &'a mut [T],
-        (&'a mut [Lookup<T>], (&'a mut [T], &'a mut [T])),
+        (
+            &'a mut [T],
+            (&'a mut [Lookup<T>], (&'a mut [T], &'a mut [T])),
+        ),
+        &'a mut ChunkScratch<T>,
     ),
 );
 
-/// Scratch of one chunk (per worker; contents never outlive a chunk).
+/// The activations and scratch of one chunk.
 #[derive(Debug)]
 struct ChunkScratch<T> {
     samples: Vec<T>,
@@ -87,6 +95,31 @@ pub struct NeuralField<T> {
     lookups: Vec<Lookup<T>>,
     d_samples: Vec<T>,
     d_pos: Vec<T>,
+    /// Stored evaluations (activations chunk by chunk), most recent reused first.
+    evals: Vec<Evaluation<T>>,
+    /// How many evaluations are kept (at least 1).
+    capacity: usize,
+    /// Incremented on every parameter change: stored evaluations of older parameters are
+    /// never reused.
+    generation: u64,
+    /// Use counter for the least-recently-used replacement.
+    clock: u64,
+}
+
+/// What a stored evaluation was computed for: exactly these positions, time and parameters.
+#[derive(Debug, PartialEq)]
+struct EvalKey<T> {
+    t: T,
+    generation: u64,
+    positions: Vec<T>,
+}
+
+/// The activations of one batched evaluation, chunk by chunk, and its key.
+#[derive(Debug)]
+struct Evaluation<T> {
+    chunks: Vec<ChunkScratch<T>>,
+    key: Option<EvalKey<T>>,
+    last_use: u64,
 }
 
 impl<T: Gemm> NeuralField<T> {
@@ -107,7 +140,12 @@ impl<T: Gemm> NeuralField<T> {
         let mut params = vec![T::ZERO; hex.n_params() + mlp.n_params()];
         let mut rng = SplitMix64::new(seed);
         hex.init_params(&mut rng, &mut params[..hex.n_params()]);
-        mlp.init_params(&mut rng, cfg.output_scales, &mut params[hex.n_params()..]);
+        mlp.init_params(
+            &mut rng,
+            cfg.output_scales,
+            cfg.zero_init_output,
+            &mut params[hex.n_params()..],
+        );
         Self {
             hex,
             mlp,
@@ -118,6 +156,10 @@ impl<T: Gemm> NeuralField<T> {
             lookups: Vec::new(),
             d_samples: Vec::new(),
             d_pos: Vec::new(),
+            evals: Vec::new(),
+            capacity: 1,
+            generation: 0,
+            clock: 0,
         }
     }
 
@@ -136,9 +178,74 @@ impl<T: Gemm> NeuralField<T> {
     pub fn params(&self) -> &[T] {
         &self.params
     }
-    /// All parameters, mutable (for the optimiser and the gradient checks).
+    /// All parameters, mutable (for the optimiser and the gradient checks). Invalidates the
+    /// stored evaluations.
     pub fn params_mut(&mut self) -> &mut [T] {
+        self.generation += 1;
         &mut self.params
+    }
+
+    /// How many evaluations to keep for later VJPs (at least 1). A VJP at exactly the
+    /// positions, time and parameters of a stored evaluation reuses its activations instead
+    /// of recomputing the forward pass; the discrete adjoint of an s-stage method evaluates
+    /// its s stages and then takes their VJPs, so a capacity of s saves every recomputation.
+    /// Each stored evaluation costs about `N·(12·C + 8·W)` scalars.
+    pub fn set_eval_capacity(&mut self, capacity: usize) {
+        self.capacity = capacity.max(1);
+        self.evals.truncate(self.capacity);
+    }
+
+    /// The index of a stored evaluation for exactly this input, if any.
+    fn find_eval(&self, t: T, positions: &[T], stride: usize, n: usize) -> Option<usize> {
+        self.evals.iter().position(|e| {
+            e.key.as_ref().is_some_and(|k| {
+                k.generation == self.generation
+                    && k.t == t
+                    && k.positions.len() == 3 * n
+                    && (0..n).all(|i| {
+                        k.positions[3 * i..3 * i + 3] == positions[i * stride..i * stride + 3]
+                    })
+            })
+        })
+    }
+
+    /// A slot for a new evaluation of `n` Gaussians (the least recently used one), sized and
+    /// keyed for this input.
+    fn claim_eval(&mut self, t: T, positions: &[T], stride: usize, n: usize) -> usize {
+        let slot = if self.evals.len() < self.capacity {
+            self.evals.push(Evaluation {
+                chunks: Vec::new(),
+                key: None,
+                last_use: 0,
+            });
+            self.evals.len() - 1
+        } else {
+            (0..self.evals.len())
+                .min_by_key(|&i| self.evals[i].last_use)
+                .unwrap_or(0)
+        };
+        let n_chunks = n.div_ceil(CHUNK);
+        let e = &mut self.evals[slot];
+        while e.chunks.len() < n_chunks {
+            e.chunks.push(ChunkScratch::new(&self.hex, &self.mlp));
+        }
+        let mut key = e.key.take().unwrap_or(EvalKey {
+            t,
+            generation: 0,
+            positions: Vec::new(),
+        });
+        key.t = t;
+        key.generation = self.generation;
+        key.positions.clear();
+        key.positions
+            .extend((0..n).flat_map(|i| positions[i * stride..i * stride + 3].iter().copied()));
+        e.key = Some(key);
+        slot
+    }
+
+    fn touch(&mut self, slot: usize) {
+        self.clock += 1;
+        self.evals[slot].last_use = self.clock;
     }
     /// The range of the plane parameters (optimiser group "grid").
     #[must_use]
@@ -169,8 +276,32 @@ impl<T: Gemm> NeuralField<T> {
             n == 0 || (positions.len() >= (n - 1) * stride + 3 && out.len() >= n * N_OUT),
             "batch buffers too short"
         );
+        let n_chunks = n.div_ceil(CHUNK);
+        if let Some(slot) = self.find_eval(t, positions, stride, n) {
+            // Evaluated before at exactly this input: the outputs are the stored unscaled
+            // outputs times the output scales.
+            self.touch(slot);
+            let scales = &self.params[self.hex.n_params() + self.mlp.scales_offset()..];
+            for (out_c, scratch) in out[..n * N_OUT]
+                .chunks_mut(CHUNK * N_OUT)
+                .zip(&self.evals[slot].chunks)
+            {
+                for (o, r) in out_c
+                    .chunks_exact_mut(N_OUT)
+                    .zip(scratch.act.raw.chunks_exact(N_OUT))
+                {
+                    for k in 0..N_OUT {
+                        o[k] = r[k] * scales[k / 3];
+                    }
+                }
+            }
+            return;
+        }
+        let slot = self.claim_eval(t, positions, stride, n);
+        self.touch(slot);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
-        let run = |scratch: &mut ChunkScratch<T>, (ci, out_c): (usize, &mut [T])| {
+        let scratches = &mut self.evals[slot].chunks[..n_chunks];
+        let run = |(ci, (out_c, scratch)): (usize, (&mut [T], &mut ChunkScratch<T>))| {
             let rows = out_c.len() / N_OUT;
             let pos = &positions[ci * CHUNK * stride..];
             encode_chunk(hex, params, t, pos, stride, rows, scratch);
@@ -182,19 +313,20 @@ impl<T: Gemm> NeuralField<T> {
                 out_c,
             );
         };
-        let chunks = out[..n * N_OUT].chunks_mut(CHUNK * N_OUT).enumerate();
         match self.par {
-            Par::Seq => {
-                let mut s = ChunkScratch::new(hex, mlp);
-                chunks.for_each(|c| run(&mut s, c));
-            }
+            Par::Seq => out[..n * N_OUT]
+                .chunks_mut(CHUNK * N_OUT)
+                .zip(scratches.iter_mut())
+                .enumerate()
+                .for_each(run),
             #[cfg(feature = "rayon")]
             Par::Rayon => {
                 use rayon::prelude::*;
                 out[..n * N_OUT]
                     .par_chunks_mut(CHUNK * N_OUT)
+                    .zip(scratches.par_iter_mut())
                     .enumerate()
-                    .for_each_init(|| ChunkScratch::new(hex, mlp), run);
+                    .for_each(run);
             }
         }
     }
@@ -229,20 +361,27 @@ impl<T: Gemm> NeuralField<T> {
         self.d_samples.resize(n * n_lk * ch, T::ZERO);
         self.d_pos.clear();
         self.d_pos.resize(n * 3, T::ZERO);
+        let (slot, stored) = match self.find_eval(t, positions, stride, n) {
+            Some(i) => (i, true),
+            None => (self.claim_eval(t, positions, stride, n), false),
+        };
+        self.touch(slot);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
-        let run = |scratch: &mut ChunkScratch<T>,
-                   (ci, (partial, (lks, (dss, dp)))): VjpItem<'_, T>| {
+        let scratches = &mut self.evals[slot].chunks[..n_chunks];
+        let run = |(ci, ((partial, (lks, (dss, dp))), scratch)): VjpItem<'_, T>| {
             let rows = lks.len() / n_lk;
             let pos = &positions[ci * CHUNK * stride..];
-            encode_chunk(hex, params, t, pos, stride, rows, scratch);
-            let mut out = [T::ZERO; CHUNK * N_OUT];
-            mlp.forward(
-                &params[hex.n_params()..],
-                &scratch.features,
-                rows,
-                &mut scratch.act,
-                &mut out[..rows * N_OUT],
-            );
+            if !stored {
+                encode_chunk(hex, params, t, pos, stride, rows, scratch);
+                let mut out = [T::ZERO; CHUNK * N_OUT];
+                mlp.forward(
+                    &params[hex.n_params()..],
+                    &scratch.features,
+                    rows,
+                    &mut scratch.act,
+                    &mut out[..rows * N_OUT],
+                );
+            }
             let d_o = &d_out[ci * CHUNK * N_OUT..ci * CHUNK * N_OUT + rows * N_OUT];
             let ChunkScratch {
                 features,
@@ -261,22 +400,20 @@ impl<T: Gemm> NeuralField<T> {
             );
             decode_chunk_vjp(hex, params, t, pos, stride, rows, scratch, lks, dss, dp);
         };
-        let items = self
-            .partials
-            .chunks_mut(n_mlp)
-            .zip(
-                self.lookups.chunks_mut(CHUNK * n_lk).zip(
-                    self.d_samples
-                        .chunks_mut(CHUNK * n_lk * ch)
-                        .zip(self.d_pos.chunks_mut(CHUNK * 3)),
-                ),
-            )
-            .enumerate();
         match self.par {
-            Par::Seq => {
-                let mut s = ChunkScratch::new(hex, mlp);
-                items.for_each(|c| run(&mut s, c));
-            }
+            Par::Seq => self
+                .partials
+                .chunks_mut(n_mlp)
+                .zip(
+                    self.lookups.chunks_mut(CHUNK * n_lk).zip(
+                        self.d_samples
+                            .chunks_mut(CHUNK * n_lk * ch)
+                            .zip(self.d_pos.chunks_mut(CHUNK * 3)),
+                    ),
+                )
+                .zip(scratches.iter_mut())
+                .enumerate()
+                .for_each(run),
             #[cfg(feature = "rayon")]
             Par::Rayon => {
                 use rayon::prelude::*;
@@ -289,8 +426,9 @@ impl<T: Gemm> NeuralField<T> {
                                 .zip(self.d_pos.par_chunks_mut(CHUNK * 3)),
                         ),
                     )
+                    .zip(scratches.par_iter_mut())
                     .enumerate()
-                    .for_each_init(|| ChunkScratch::new(hex, mlp), run);
+                    .for_each(run);
             }
         }
         for i in 0..n {

@@ -88,6 +88,23 @@ pub struct ModelGrad<T> {
     pub field: Vec<T>,
 }
 
+/// How many field evaluations to keep for the adjoint: every stage of the longest integration
+/// a frame or an anchor segment needs (so the discrete adjoint recomputes nothing), at most 16.
+fn stored_evaluations(method: Method, max_step: f64, anchor_times: &[f64]) -> usize {
+    let longest = anchor_times
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(0.0, f64::max)
+        .max(if anchor_times.len() == 1 { 1.0 } else { 0.0 });
+    #[allow(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "small positive step counts"
+    )]
+    let steps = (longest / max_step.max(1e-9)).ceil().max(1.0) as usize;
+    (method.stages() * steps).min(4)
+}
+
 impl<T: Gemm> Model<T> {
     /// A model with the dynamics off; anchors `1..K` start as copies of the canonical state.
     #[must_use]
@@ -111,6 +128,8 @@ impl<T: Gemm> Model<T> {
             quats: canonical.quats.clone(),
         };
         let anchors = vec![copy; anchor_times.len().saturating_sub(1)];
+        let mut field = field;
+        field.set_eval_capacity(stored_evaluations(method, max_step, &anchor_times));
         Self {
             canonical,
             anchor_times,

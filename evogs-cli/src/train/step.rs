@@ -71,6 +71,21 @@ pub struct StepLosses {
     pub coherence: f64,
     /// Weighted anchor loss.
     pub anchor: f64,
+    /// Seconds spent in each phase of the step.
+    pub timings: StepTimings,
+}
+
+/// Wall-clock seconds of the phases of one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepTimings {
+    /// Gaussians at t (ODE integration or displacement).
+    pub dynamics: f64,
+    /// Render, loss and render VJP.
+    pub render: f64,
+    /// Back through the dynamics (discrete adjoint or displacement VJP).
+    pub adjoint: f64,
+    /// Regularisers, coherence and anchor loss.
+    pub extra: f64,
 }
 
 /// Reusable buffers of the step.
@@ -142,8 +157,11 @@ pub fn loss_and_grad<T: Gemm>(
     ws: &mut StepWorkspace<T>,
     grad: &mut ModelGrad<T>,
 ) -> (StepLosses, ScreenStats<T>) {
+    let clock = std::time::Instant::now();
+    let mut timings = StepTimings::default();
     let mut splats_t = core::mem::take(&mut ws.splats_t);
     let tape = model.splats_at(view.time, &mut ws.stepper, &mut splats_t);
+    timings.dynamics = clock.elapsed().as_secs_f64();
     let mut fwd = ws.render.take().unwrap_or_else(|| Render {
         pre: evogs_splat::Preprocessed::default(),
         raster: evogs_splat::RasterOutput::new(
@@ -189,7 +207,9 @@ pub fn loss_and_grad<T: Gemm>(
         },
         &mut g,
     );
+    timings.render = clock.elapsed().as_secs_f64() - timings.dynamics;
     model.backward_at(&tape, &mut ws.stepper, &g.splats, grad);
+    timings.adjoint = clock.elapsed().as_secs_f64() - timings.dynamics - timings.render;
     let mse = evogs_splat::metrics::mse(&fwd.raster.rgb, &view.image).to_f64();
     let mut losses = StepLosses {
         l1: photo.l1.to_f64(),
@@ -224,6 +244,9 @@ pub fn loss_and_grad<T: Gemm>(
         losses.anchor = model.anchor_loss(k, s.lambda_anchor, &mut ws.stepper, grad);
     }
     losses.total += losses.planes + losses.coherence + losses.anchor;
+    timings.extra =
+        clock.elapsed().as_secs_f64() - timings.dynamics - timings.render - timings.adjoint;
+    losses.timings = timings;
     let stats = ScreenStats {
         grad2d: g.raster.means2d.iter().map(|v| [v.x, v.y]).collect(),
         radius: fwd.pre.radii.iter().map(|r| r[0].max(r[1])).collect(),
