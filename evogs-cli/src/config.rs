@@ -172,7 +172,8 @@ pub struct OptimConfig {
 pub struct DensifyConfig {
     /// First iteration of densification.
     pub from_iter: u64,
-    /// Last iteration of densification.
+    /// End of the densification window (exclusive, as 3DGS: densification, statistics and
+    /// opacity resets run while `from_iter ≤ iteration < until_iter`).
     pub until_iter: u64,
     /// Iterations between densifications.
     pub interval: u64,
@@ -212,7 +213,7 @@ impl TrainConfig {
     /// The `fast` preset: sized so the shipped 200×200 scene trains in about ten minutes
     /// on two CPU cores: a smaller field (2 × 16 channels at [32, 32, 32, 16], MLP 32 wide),
     /// five anchors with one RK4 step of a quarter of the time range between them, at most
-    /// 20 000 Gaussians, 1500 static + 3000 dynamic iterations.
+    /// 20 000 Gaussians, 1500 static + 2500 dynamic iterations.
     #[must_use]
     pub fn fast() -> Self {
         let mut c = Self::paper();
@@ -230,15 +231,15 @@ impl TrainConfig {
         c.dynamics.anchors = 5;
         c.dynamics.step_fraction = 0.25;
         c.schedule.warmup_iters = 1500;
-        c.schedule.iterations = 4500;
+        c.schedule.iterations = 4000;
         c.schedule.sh_degree_interval = 500;
         c.schedule.checkpoint_every = 1000;
         c.densify.from_iter = 300;
-        c.densify.until_iter = 3500;
+        c.densify.until_iter = 3000;
         c.densify.interval = 100;
         c.densify.opacity_reset_interval = 1500;
         c.densify.max_gaussians = 20_000;
-        c.optim.lr_max_steps = 4500;
+        c.optim.lr_max_steps = 4000;
         c.loss.coherence_samples = 500;
         c
     }

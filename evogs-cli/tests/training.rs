@@ -120,3 +120,41 @@ fn resume_continues_bit_for_bit() {
     assert_eq!(l.model.canonical, b.model.canonical, "model round trip");
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// The densification window is `from_iter ≤ it < until_iter` (3DGS): no densification and
+/// no opacity reset at `until_iter` itself, which is often the last iteration (a reset there
+/// would leave every Gaussian at opacity 0.01 in the saved model).
+#[test]
+fn densification_window_excludes_until_iter() {
+    let mut c = tiny_config();
+    c.schedule.warmup_iters = 40;
+    c.schedule.iterations = 40;
+    c.densify.from_iter = 10;
+    c.densify.until_iter = 40;
+    c.densify.interval = 20;
+    c.densify.opacity_reset_interval = 20;
+    let (views, pos, col) = data(&c);
+    let mut t = Trainer::new(c, views, Some((&pos, Some(&col)))).expect("trainer");
+    let reset_logit = (0.01f32 / 0.99).ln() + 1e-5;
+    while !t.finished() {
+        let r = t.step().expect("finite step");
+        let max_logit = t
+            .model
+            .canonical
+            .opacity_logits
+            .iter()
+            .copied()
+            .fold(f32::MIN, f32::max);
+        match r.iteration {
+            20 => {
+                assert!(r.densify.is_some(), "densified at 20");
+                assert!(max_logit <= reset_logit, "opacity reset at 20");
+            }
+            40 => {
+                assert!(r.densify.is_none(), "no densification at until_iter");
+                assert!(max_logit > reset_logit, "no opacity reset at until_iter");
+            }
+            _ => {}
+        }
+    }
+}

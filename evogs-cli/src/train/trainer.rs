@@ -343,7 +343,9 @@ impl Trainer {
             });
         }
         let d = &self.cfg.densify;
-        if it <= d.until_iter {
+        // 3DGS convention: the densification window is `from_iter ≤ it < until_iter`, so an
+        // opacity reset never lands on `until_iter` itself (which is often the last iteration).
+        if it < d.until_iter {
             accumulate_screen_stats(
                 &stats,
                 &mut self.stats.accum,
@@ -367,7 +369,7 @@ impl Trainer {
         {
             self.model.refresh_anchors_from_start(&mut self.ws.stepper);
         }
-        if it >= d.from_iter && it <= d.until_iter && it.is_multiple_of(d.interval) {
+        if it >= d.from_iter && it < d.until_iter && it.is_multiple_of(d.interval) {
             let prune_big = d.opacity_reset_interval > 0 && it > d.opacity_reset_interval;
             let d = d.clone();
             report.densify = Some(densify_and_prune(
@@ -382,7 +384,7 @@ impl Trainer {
         }
         let d = &self.cfg.densify;
         if d.opacity_reset_interval > 0
-            && it <= d.until_iter
+            && it < d.until_iter
             && it.is_multiple_of(d.opacity_reset_interval)
         {
             reset_opacity(&mut self.model, &mut self.optim);
