@@ -11,18 +11,17 @@
 
 use super::Reporter;
 use super::paths::RunFolder;
-use super::render::{CameraPath, orbit_cameras, orbit_center};
+use super::render::{CameraPath, path_cameras};
 use super::train::{CommandError, load_dataset};
 use crate::data::image_io;
 use crate::field::neural::gaussian_layout;
 use crate::model::Motion;
 use crate::run::checkpoint;
 use crate::train::step::render_options;
-use crate::train::views::view_camera;
 use evogs_math::{Par, Vec3};
 use evogs_ode::algebra::{Edge, Mask, Mix, ParticleFrame, RigidRotation, Translation};
 use evogs_ode::{Stepper, VectorField, integrate};
-use evogs_splat::{PinholeCamera, Splats, TiledRasterizer, render_tiled};
+use evogs_splat::{Splats, TiledRasterizer, render_tiled};
 use std::path::PathBuf;
 
 /// The injected field.
@@ -164,25 +163,7 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<Vec<PathBuf>,
         Mask::Weights(_) => Vec3::zero(),
     };
     let (a, b, count) = args.times;
-    let cams: Vec<PinholeCamera<f32>> = match args.camera {
-        CameraPath::Orbit => {
-            orbit_cameras(&ds, orbit_center(&model), count).map_err(CommandError)?
-        }
-        CameraPath::Test => {
-            let t: Vec<PinholeCamera<f32>> = ds
-                .test
-                .iter()
-                .map(view_camera)
-                .collect::<Result<_, _>>()
-                .map_err(CommandError)?;
-            if t.is_empty() {
-                return Err(CommandError(
-                    "the dataset has no test cameras (use --camera orbit)".into(),
-                ));
-            }
-            (0..count).map(|i| t[i % t.len()]).collect()
-        }
-    };
+    let cams = path_cameras(args.camera, &ds, &model, count)?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| CommandError(format!("{}: cannot create: {e}", args.out.display())))?;
     model.field.set_count(n);

@@ -133,6 +133,36 @@ pub fn orbit_center(model: &Model<f32>) -> Vec3<f64> {
     Vec3::new(m.x, m.y, 0.0)
 }
 
+/// The cameras of `count` frames along `path`: an orbit around the model's centre
+/// ([`orbit_center`], [`orbit_cameras`]) or the test cameras, cycled.
+///
+/// # Errors
+/// No training views to place the orbit, no test cameras, or an invalid camera.
+pub fn path_cameras(
+    path: CameraPath,
+    ds: &Dataset,
+    model: &Model<f32>,
+    count: usize,
+) -> Result<Vec<PinholeCamera<f32>>, CommandError> {
+    match path {
+        CameraPath::Orbit => orbit_cameras(ds, orbit_center(model), count).map_err(CommandError),
+        CameraPath::Test => {
+            let t: Vec<PinholeCamera<f32>> = ds
+                .test
+                .iter()
+                .map(view_camera)
+                .collect::<Result<_, _>>()
+                .map_err(CommandError)?;
+            if t.is_empty() {
+                return Err(CommandError(
+                    "the dataset has no test cameras (use --camera orbit)".into(),
+                ));
+            }
+            Ok((0..count).map(|i| t[i % t.len()]).collect())
+        }
+    }
+}
+
 /// Renders the frames (using an already loaded model and dataset when given).
 ///
 /// # Errors
@@ -160,26 +190,7 @@ pub fn render_sequence(
     };
     let background = [1.0, 1.0, 1.0];
     let (a, b, n) = args.times;
-    let center = orbit_center(model);
-    let cams = match args.camera {
-        CameraPath::Orbit => {
-            orbit_cameras(ds, Vec3::new(center.x, center.y, 0.0), n).map_err(CommandError)?
-        }
-        CameraPath::Test => {
-            let t: Vec<PinholeCamera<f32>> = ds
-                .test
-                .iter()
-                .map(view_camera)
-                .collect::<Result<_, _>>()
-                .map_err(CommandError)?;
-            if t.is_empty() {
-                return Err(CommandError(
-                    "the dataset has no test cameras (use --camera orbit)".into(),
-                ));
-            }
-            (0..n).map(|i| t[i % t.len()]).collect()
-        }
-    };
+    let cams = path_cameras(args.camera, ds, model, n)?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| CommandError(format!("{}: cannot create: {e}", args.out.display())))?;
     rep.start("render", n as u64);
