@@ -36,6 +36,22 @@ pub struct PixelGrad<'a, T> {
     pub depth: Option<&'a [T]>,
 }
 
+impl<T> PixelGrad<'_, T> {
+    /// Panics unless every cotangent covers `np` pixels (the shape check both rasterizers'
+    /// backward passes start with).
+    pub(crate) fn assert_pixels(&self, np: usize) {
+        assert_eq!(self.rgb.len(), 3 * np, "rgb cotangent length");
+        assert!(
+            self.alpha.is_none_or(|a| a.len() == np),
+            "alpha cotangent length"
+        );
+        assert!(
+            self.depth.is_none_or(|a| a.len() == np),
+            "depth cotangent length"
+        );
+    }
+}
+
 /// VJP of [`rasterize_ref`](crate::raster_ref::rasterize_ref): **adds** the gradients with
 /// respect to every Gaussian's 2D mean, conic, colour, effective opacity and depth into
 /// `grad` and returns the gradient with respect to the background colour.
@@ -66,15 +82,7 @@ pub fn rasterize_ref_vjp<T: Real>(
 ) -> [T; 3] {
     let (w, h) = (pre.width, pre.height);
     let np = w * h;
-    assert_eq!(d.rgb.len(), 3 * np, "rgb cotangent length");
-    assert!(
-        d.alpha.is_none_or(|a| a.len() == np),
-        "alpha cotangent length"
-    );
-    assert!(
-        d.depth.is_none_or(|a| a.len() == np),
-        "depth cotangent length"
-    );
+    d.assert_pixels(np);
     assert!(out.final_t.len() == np, "forward output size");
     assert_eq!(grad.len(), pre.means2d.len(), "gradient length");
     let floor = T::from_f64(DEPTH_DENOM_MIN);

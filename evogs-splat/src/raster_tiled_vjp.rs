@@ -132,15 +132,7 @@ impl<T: Real> TiledRasterizer<T> {
     ) -> [T; 3] {
         let (w, h) = (pre.width, pre.height);
         let np = w * h;
-        assert_eq!(d.rgb.len(), 3 * np, "rgb cotangent length");
-        assert!(
-            d.alpha.is_none_or(|a| a.len() == np),
-            "alpha cotangent length"
-        );
-        assert!(
-            d.depth.is_none_or(|a| a.len() == np),
-            "depth cotangent length"
-        );
+        d.assert_pixels(np);
         assert!(
             out.final_t.len() == np && out.last.len() == np,
             "forward output size"
