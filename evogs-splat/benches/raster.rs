@@ -20,14 +20,11 @@
 use criterion::{
     BenchmarkGroup, Criterion, criterion_group, criterion_main, measurement::WallTime,
 };
-use evogs_math::activation::logit;
-use evogs_math::rng::SplitMix64;
-use evogs_math::sh::SH_C0;
-use evogs_math::{Par, Quat, Real, Vec2, Vec3};
+use evogs_math::{Par, Vec2};
 use evogs_splat::{
     PinholeCamera, PixelGrad, RasterInputGrad, RenderOptions, Splats, TiledRasterizer,
-    benchmark_scene, preprocess, preprocess_vjp, render, render_tiled, render_tiled_into,
-    render_tiled_vjp, render_tiled_vjp_into, render_vjp,
+    benchmark_scene, preprocess, preprocess_vjp, random_scene, render, render_tiled,
+    render_tiled_into, render_tiled_vjp, render_tiled_vjp_into, render_vjp,
 };
 use std::hint::black_box;
 use std::time::Duration;
@@ -36,50 +33,7 @@ const SIZE: usize = 400;
 
 /// The scene of the issue (see the module docs).
 fn issue_scene(n: usize, seed: u64) -> (Splats<f32>, PinholeCamera<f32>) {
-    let mut rng = SplitMix64::new(seed);
-    let mut s = Splats::new(3);
-    let (lo, hi) = (0.008_f64.ln(), 0.0125_f64.ln());
-    let mut sh = [[0.0_f32; 3]; 16];
-    for _ in 0..n {
-        let mean = Vec3::new(
-            rng.uniform(-0.5, 0.5),
-            rng.uniform(-0.5, 0.5),
-            rng.uniform(-0.5, 0.5),
-        );
-        let ls = Vec3::new(
-            rng.uniform(lo, hi),
-            rng.uniform(lo, hi),
-            rng.uniform(lo, hi),
-        );
-        let q = Quat::new(rng.normal(), rng.normal(), rng.normal(), rng.normal()).normalize();
-        for (k, c) in sh.iter_mut().enumerate() {
-            for ch in c.iter_mut() {
-                let v = if k == 0 {
-                    (rng.uniform(0.0, 1.0) - 0.5) / SH_C0
-                } else {
-                    0.05 * rng.normal()
-                };
-                *ch = f32::from_f64(v);
-            }
-        }
-        s.push(
-            mean.cast(),
-            ls.cast(),
-            q.cast(),
-            f32::from_f64(logit(0.5_f64)),
-            &sh,
-        );
-    }
-    let cam = PinholeCamera::<f64>::look_at(
-        Vec3::new(0.0, 0.0, 4.0),
-        Vec3::zero(),
-        Vec3::new(0.0, 1.0, 0.0),
-        40.0_f64.to_radians(),
-        SIZE,
-        SIZE,
-    )
-    .expect("benchmark camera");
-    (s, cam.cast())
+    random_scene(n, SIZE, seed, [0.008, 0.0125], [0.5, 0.5])
 }
 
 fn pars() -> Vec<(&'static str, Par)> {

@@ -231,15 +231,33 @@ impl<T: Real> Splats<T> {
 /// `[−0.5, 0.5]³`, log-uniform scales in `[0.01, 0.03]`, opacities uniform in `[0.5, 0.9]`,
 /// random unit quaternions, SH degree 3 (random DC colour, higher coefficients ~ N(0, 0.05²));
 /// the camera at distance 4 on the +z axis looking at the origin, 40° horizontal field of
-/// view, `size × size` pixels. Seeded and deterministic.
+/// view, `size × size` pixels. Seeded and deterministic. ([`random_scene`] with those
+/// ranges.)
 ///
 /// # Panics
 /// If `size` is zero.
 #[must_use]
 pub fn benchmark_scene<T: Real>(n: usize, size: usize, seed: u64) -> (Splats<T>, PinholeCamera<T>) {
+    random_scene(n, size, seed, [0.01, 0.03], [0.5, 0.9])
+}
+
+/// A seeded random scene like [`benchmark_scene`], with the per-axis scale range (log-uniform)
+/// and the opacity range (uniform; a degenerate range `[o, o]` gives every Gaussian opacity
+/// `o` without drawing) chosen by the caller.
+///
+/// # Panics
+/// If `size` is zero.
+#[must_use]
+pub fn random_scene<T: Real>(
+    n: usize,
+    size: usize,
+    seed: u64,
+    scale_range: [f64; 2],
+    opacity_range: [f64; 2],
+) -> (Splats<T>, PinholeCamera<T>) {
     let mut rng = SplitMix64::new(seed);
     let mut s = Splats::new(3);
-    let (lo, hi) = (Real::ln(0.01_f64), Real::ln(0.03_f64));
+    let (lo, hi) = (Real::ln(scale_range[0]), Real::ln(scale_range[1]));
     let mut sh = [[T::ZERO; 3]; 16];
     for _ in 0..n {
         let mean = Vec3::new(
@@ -253,7 +271,12 @@ pub fn benchmark_scene<T: Real>(n: usize, size: usize, seed: u64) -> (Splats<T>,
             rng.uniform(lo, hi),
         );
         let q = Quat::new(rng.normal(), rng.normal(), rng.normal(), rng.normal()).normalize();
-        let op = logit(rng.uniform(0.5, 0.9));
+        #[allow(clippy::float_cmp, reason = "a degenerate range is given exactly")]
+        let opacity = if opacity_range[0] == opacity_range[1] {
+            opacity_range[0]
+        } else {
+            rng.uniform(opacity_range[0], opacity_range[1])
+        };
         for (k, c) in sh.iter_mut().enumerate() {
             for ch in c.iter_mut() {
                 let v = if k == 0 {
@@ -264,7 +287,13 @@ pub fn benchmark_scene<T: Real>(n: usize, size: usize, seed: u64) -> (Splats<T>,
                 *ch = T::from_f64(v);
             }
         }
-        s.push(mean.cast(), ls.cast(), q.cast(), T::from_f64(op), &sh);
+        s.push(
+            mean.cast(),
+            ls.cast(),
+            q.cast(),
+            T::from_f64(logit(opacity)),
+            &sh,
+        );
     }
     let cam = PinholeCamera::look_at(
         Vec3::new(0.0, 0.0, 4.0),

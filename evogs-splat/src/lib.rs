@@ -68,7 +68,7 @@ pub mod tile_lanes;
 pub use binning::{Binning, Rect, TILE_SIZE, TileGrid};
 pub use camera::{CameraError, CameraGrad, PinholeCamera};
 pub use color::{sh_color, sh_color_vjp};
-pub use gaussians::{Splats, SplatsGrad, benchmark_scene};
+pub use gaussians::{Splats, SplatsGrad, benchmark_scene, random_scene};
 pub use image::Image;
 pub use preprocess::{
     Preprocessed, RasterInputGrad, RasterMode, RenderOptions, preprocess, preprocess_into,
