@@ -14,7 +14,7 @@ use evogs_splat::{
     project, render, render_vjp,
 };
 use serde_json::Value;
-use splat_common::{Cmp, bools, camera, flat, int, load, num, splats};
+use splat_common::{Cmp, bools, camera, check_render_grads, flat, int, load, num, splats};
 
 const FILES: [&str; 3] = [
     "raster_shared_00_basic_sh0.json",
@@ -177,63 +177,6 @@ fn forward_matches_reference() {
     }
 }
 
-fn check_grads(label: &str, c: &Case, g: &RenderGrad<f64>, reference: &Value) {
-    let s = &c.splats;
-    let chk = |name: &str, mine: &[f64], key: &Value| {
-        Cmp::new(&format!("{label}.{name}"), mine, &flat(key), GRAD_TOL, 1.0).check();
-    };
-    let p = &reference["params"];
-    let gm: Vec<f64> = g.splats.means.iter().flat_map(|v| v.to_array()).collect();
-    chk("params.means", &gm, &p["means"]);
-    let gq: Vec<f64> = g.splats.quats.iter().flat_map(|q| q.to_array()).collect();
-    chk("params.quats", &gq, &p["quats"]);
-    // ŝ = ln s: d/ds = (d/dŝ)/s.
-    let gs: Vec<f64> = (0..s.len())
-        .flat_map(|i| {
-            let (d, ls) = (g.splats.log_scales[i], s.log_scales[i]);
-            [d.x / ls.x.exp(), d.y / ls.y.exp(), d.z / ls.z.exp()]
-        })
-        .collect();
-    chk("params.scales", &gs, &p["scales"]);
-    // ô = logit(o): d/do = (d/dô)/(o(1 − o)).
-    let go: Vec<f64> = (0..s.len())
-        .map(|i| {
-            let o = sigmoid(s.opacity_logits[i]);
-            g.splats.opacity_logits[i] / (o * (1.0 - o))
-        })
-        .collect();
-    chk("params.opacities", &go, &p["opacities"]);
-    chk("params.sh_coeffs", &g.splats.sh.concat(), &p["sh_coeffs"]);
-    chk(
-        "params.viewmat",
-        &g.camera.to_viewmat().concat(),
-        &p["viewmat"],
-    );
-    chk(
-        "params.pose_left_se3",
-        &g.camera.to_pose_left_se3(&c.cam),
-        &p["pose_left_se3"],
-    );
-    let r = &reference["raster_inputs"];
-    let m2: Vec<f64> = g.raster.means2d.iter().flat_map(|m| m.to_array()).collect();
-    chk("raster_inputs.means2d", &m2, &r["means2d"]);
-    chk(
-        "raster_inputs.conics",
-        &g.raster.conics.concat(),
-        &r["conics"],
-    );
-    chk(
-        "raster_inputs.colors",
-        &g.raster.colors.concat(),
-        &r["colors"],
-    );
-    chk(
-        "raster_inputs.opacities_effective",
-        &g.raster.opacities,
-        &r["opacities_effective"],
-    );
-}
-
 #[test]
 fn gradients_match_reference() {
     for file in FILES {
@@ -241,9 +184,23 @@ fn gradients_match_reference() {
         let c = case(file, RadiusMode::Plain);
         let fwd = render(&c.splats, &c.cam, &c.opts);
         let total = grads(&c, &fwd, true);
-        check_grads("total", &c, &total, &c.v["case"]["grads"]["total"]);
+        check_render_grads(
+            "total",
+            &c.splats,
+            &c.cam,
+            &total,
+            &c.v["case"]["grads"]["total"],
+            GRAD_TOL,
+        );
         let rgb = grads(&c, &fwd, false);
-        check_grads("rgb_only", &c, &rgb, &c.v["case"]["grads"]["rgb_only"]);
+        check_render_grads(
+            "rgb_only",
+            &c.splats,
+            &c.cam,
+            &rgb,
+            &c.v["case"]["grads"]["rgb_only"],
+            GRAD_TOL,
+        );
     }
 }
 

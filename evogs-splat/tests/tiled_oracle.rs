@@ -7,13 +7,12 @@
 mod splat_common;
 
 use evogs_math::Par;
-use evogs_math::activation::sigmoid;
 use evogs_splat::{
     ExpMode, PinholeCamera, PixelGrad, RadiusMode, RasterMode, RenderGrad, RenderOptions, Splats,
     TiledRasterizer, render, render_tiled, render_tiled_vjp, render_vjp,
 };
 use serde_json::Value;
-use splat_common::{Cmp, bools, camera, flat, int, load, num, splats};
+use splat_common::{Cmp, bools, camera, check_render_grads, flat, int, load, num, splats};
 
 const FILES: [&str; 3] = [
     "raster_shared_00_basic_sh0.json",
@@ -62,61 +61,6 @@ fn pixel_grad<'a>(w_rgb: &'a [f64], w_alpha: &'a [f64], alpha: bool) -> PixelGra
         alpha: alpha.then_some(w_alpha),
         depth: None,
     }
-}
-
-fn check_grads(label: &str, c: &Case, g: &RenderGrad<f64>, reference: &Value) {
-    let s = &c.splats;
-    let chk = |name: &str, mine: &[f64], key: &Value| {
-        Cmp::new(&format!("{label}.{name}"), mine, &flat(key), GRAD_TOL, 1.0).check();
-    };
-    let p = &reference["params"];
-    let gm: Vec<f64> = g.splats.means.iter().flat_map(|v| v.to_array()).collect();
-    chk("params.means", &gm, &p["means"]);
-    let gq: Vec<f64> = g.splats.quats.iter().flat_map(|q| q.to_array()).collect();
-    chk("params.quats", &gq, &p["quats"]);
-    let gs: Vec<f64> = (0..s.len())
-        .flat_map(|i| {
-            let (d, ls) = (g.splats.log_scales[i], s.log_scales[i]);
-            [d.x / ls.x.exp(), d.y / ls.y.exp(), d.z / ls.z.exp()]
-        })
-        .collect();
-    chk("params.scales", &gs, &p["scales"]);
-    let go: Vec<f64> = (0..s.len())
-        .map(|i| {
-            let o = sigmoid(s.opacity_logits[i]);
-            g.splats.opacity_logits[i] / (o * (1.0 - o))
-        })
-        .collect();
-    chk("params.opacities", &go, &p["opacities"]);
-    chk("params.sh_coeffs", &g.splats.sh.concat(), &p["sh_coeffs"]);
-    chk(
-        "params.viewmat",
-        &g.camera.to_viewmat().concat(),
-        &p["viewmat"],
-    );
-    chk(
-        "params.pose_left_se3",
-        &g.camera.to_pose_left_se3(&c.cam),
-        &p["pose_left_se3"],
-    );
-    let r = &reference["raster_inputs"];
-    let m2: Vec<f64> = g.raster.means2d.iter().flat_map(|m| m.to_array()).collect();
-    chk("raster_inputs.means2d", &m2, &r["means2d"]);
-    chk(
-        "raster_inputs.conics",
-        &g.raster.conics.concat(),
-        &r["conics"],
-    );
-    chk(
-        "raster_inputs.colors",
-        &g.raster.colors.concat(),
-        &r["colors"],
-    );
-    chk(
-        "raster_inputs.opacities_effective",
-        &g.raster.opacities,
-        &r["opacities_effective"],
-    );
 }
 
 #[test]
@@ -169,7 +113,14 @@ fn tiled_gradients_match_the_oracle() {
             for (label, alpha) in [("total", true), ("rgb_only", false)] {
                 let d = pixel_grad(&w_rgb, &w_alpha, alpha);
                 let g = render_tiled_vjp(&c.splats, &c.cam, &c.opts, &mut rast, &fwd, &d);
-                check_grads(label, &c, &g, &c.v["case"]["grads"][label]);
+                check_render_grads(
+                    label,
+                    &c.splats,
+                    &c.cam,
+                    &g,
+                    &c.v["case"]["grads"][label],
+                    GRAD_TOL,
+                );
             }
         }
     }

@@ -3,8 +3,9 @@
 #![allow(dead_code, reason = "each test binary uses a subset of the helpers")]
 
 use evogs_math::activation::logit;
+use evogs_math::activation::sigmoid;
 use evogs_math::{Quat, Vec3};
-use evogs_splat::{PinholeCamera, Splats};
+use evogs_splat::{PinholeCamera, RenderGrad, Splats};
 use serde_json::Value;
 
 /// Loads an oracle file from `tests/data/oracle/`.
@@ -219,4 +220,72 @@ pub(crate) fn test_camera(width: usize, height: usize) -> PinholeCamera<f64> {
     cam.cy -= 0.7;
     cam.fy *= 1.05;
     cam
+}
+
+/// Compares the gradients of a full render (`g`, for `splats` seen by `cam`) with an oracle
+/// gradient block (`params` in the oracle's linear scales and activated opacities, the view
+/// matrix, the se(3) pose and the intermediate `raster_inputs`), each to `tol` relative to
+/// `max(1, |ref|)`.
+pub(crate) fn check_render_grads(
+    label: &str,
+    splats: &Splats<f64>,
+    cam: &PinholeCamera<f64>,
+    g: &RenderGrad<f64>,
+    reference: &Value,
+    tol: f64,
+) {
+    let s = splats;
+    let chk = |name: &str, mine: &[f64], key: &Value| {
+        Cmp::new(&format!("{label}.{name}"), mine, &flat(key), tol, 1.0).check();
+    };
+    let p = &reference["params"];
+    let gm: Vec<f64> = g.splats.means.iter().flat_map(|v| v.to_array()).collect();
+    chk("params.means", &gm, &p["means"]);
+    let gq: Vec<f64> = g.splats.quats.iter().flat_map(|q| q.to_array()).collect();
+    chk("params.quats", &gq, &p["quats"]);
+    // ŝ = ln s: d/ds = (d/dŝ)/s.
+    let gs: Vec<f64> = (0..s.len())
+        .flat_map(|i| {
+            let (d, ls) = (g.splats.log_scales[i], s.log_scales[i]);
+            [d.x / ls.x.exp(), d.y / ls.y.exp(), d.z / ls.z.exp()]
+        })
+        .collect();
+    chk("params.scales", &gs, &p["scales"]);
+    // ô = logit(o): d/do = (d/dô)/(o(1 − o)).
+    let go: Vec<f64> = (0..s.len())
+        .map(|i| {
+            let o = sigmoid(s.opacity_logits[i]);
+            g.splats.opacity_logits[i] / (o * (1.0 - o))
+        })
+        .collect();
+    chk("params.opacities", &go, &p["opacities"]);
+    chk("params.sh_coeffs", &g.splats.sh.concat(), &p["sh_coeffs"]);
+    chk(
+        "params.viewmat",
+        &g.camera.to_viewmat().concat(),
+        &p["viewmat"],
+    );
+    chk(
+        "params.pose_left_se3",
+        &g.camera.to_pose_left_se3(cam),
+        &p["pose_left_se3"],
+    );
+    let r = &reference["raster_inputs"];
+    let m2: Vec<f64> = g.raster.means2d.iter().flat_map(|m| m.to_array()).collect();
+    chk("raster_inputs.means2d", &m2, &r["means2d"]);
+    chk(
+        "raster_inputs.conics",
+        &g.raster.conics.concat(),
+        &r["conics"],
+    );
+    chk(
+        "raster_inputs.colors",
+        &g.raster.colors.concat(),
+        &r["colors"],
+    );
+    chk(
+        "raster_inputs.opacities_effective",
+        &g.raster.opacities,
+        &r["opacities_effective"],
+    );
 }
