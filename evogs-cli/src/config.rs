@@ -154,7 +154,8 @@ pub struct OptimConfig {
     pub grid_lr_init: f64,
     /// HexPlane final rate (× scene extent).
     pub grid_lr_final: f64,
-    /// Steps of the exponential decays.
+    /// Steps of the exponential decays (the position and field decays pause during the
+    /// temporal curriculum, so they end at `iterations − curriculum_iters`).
     pub lr_max_steps: u64,
     /// SH DC rate (higher coefficients: /20).
     pub feature_lr: f64,
@@ -207,6 +208,28 @@ pub struct ScheduleConfig {
     pub log_every: u64,
     /// Iterations between refreshes of snapshot anchors.
     pub snapshot_every: u64,
+    /// Temporal curriculum, start: the fraction of the training time range, from its start,
+    /// whose views the static warm-up sees (1: all of them). A small window keeps moving
+    /// objects sharp in the canonical state instead of smearing them along their paths.
+    #[serde(default = "one")]
+    pub warmup_time_window: f64,
+    /// Temporal curriculum, growth: dynamic iterations over which the window of supervised
+    /// times grows linearly from `warmup_time_window` to the whole range (0: the whole range
+    /// as soon as the dynamics start). Each trainable anchor is re-initialised, by integrating
+    /// from the anchor before it, when the window reaches its time, so every new stretch of
+    /// motion is learnt as a small step from motion already fitted.
+    #[serde(default)]
+    pub curriculum_iters: u64,
+    /// Temporal curriculum, focus: while the window grows, the probability that an
+    /// iteration supervises a view from the newest twentieth of the time range inside the
+    /// window (the motion not yet fitted) instead of the next view of the epoch.
+    #[serde(default)]
+    pub curriculum_focus: f64,
+}
+
+/// Serde default of fields whose neutral value is one.
+fn one() -> f64 {
+    1.0
 }
 
 impl TrainConfig {
@@ -325,6 +348,9 @@ impl TrainConfig {
                 checkpoint_every: 5000,
                 log_every: 50,
                 snapshot_every: 500,
+                warmup_time_window: 1.0,
+                curriculum_iters: 0,
+                curriculum_focus: 0.0,
             },
         }
     }
@@ -399,6 +425,14 @@ impl TrainConfig {
         chk(
             self.schedule.warmup_iters <= self.schedule.iterations,
             "schedule.warmup_iters must not exceed schedule.iterations",
+        )?;
+        chk(
+            self.schedule.warmup_time_window > 0.0 && self.schedule.warmup_time_window <= 1.0,
+            "schedule.warmup_time_window must be in (0, 1]",
+        )?;
+        chk(
+            (0.0..=1.0).contains(&self.schedule.curriculum_focus),
+            "schedule.curriculum_focus must be in [0, 1]",
         )?;
         chk(
             self.schedule.log_every > 0 && self.densify.interval > 0,

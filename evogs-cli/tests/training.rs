@@ -158,3 +158,78 @@ fn densification_window_excludes_until_iter() {
         }
     }
 }
+
+/// The temporal curriculum: the warm-up sees only the first stretch of the time range, the
+/// window then grows to the whole range, and each trainable anchor is left untouched until
+/// the window reaches it, when it is re-initialised from the anchor before it.
+#[test]
+fn curriculum_window_grows_and_initialises_anchors_on_arrival() {
+    let mut c = tiny_config();
+    c.schedule.warmup_iters = 10;
+    c.schedule.iterations = 50;
+    c.schedule.warmup_time_window = 0.2;
+    c.schedule.curriculum_iters = 30;
+    c.dynamics.anchors = 3;
+    c.densify.from_iter = 1000;
+    let (views, pos, col) = data(&c);
+    let mut t = Trainer::new(c, views, Some((&pos, Some(&col)))).expect("trainer");
+    let (t0, t1) = t.time_range;
+    let last_anchor_time = *t.model.anchor_times.last().expect("anchors");
+    let mut before: Option<Vec<evogs_math::Vec3<f32>>> = None;
+    let mut latest = f64::NEG_INFINITY;
+    let mut reached_at = None;
+    while !t.finished() {
+        let r = t.step().expect("finite step");
+        let it = r.iteration;
+        let hi = t.time_window_end(it);
+        assert!(
+            r.view_time <= hi + 1e-9,
+            "view at {} beyond window {hi}",
+            r.view_time
+        );
+        if it <= 10 {
+            assert!(
+                (hi - (t0 + 0.2 * (t1 - t0))).abs() < 1e-12,
+                "warm-up window"
+            );
+        }
+        assert!(hi >= t.time_window_end(it - 1), "the window never shrinks");
+        latest = latest.max(r.view_time);
+        let last = t.model.anchors.last().expect("anchor").means.clone();
+        // (The dynamics start by setting every anchor from the canonical state.)
+        if t.model.dynamics_active && !r.dynamics_started && reached_at.is_none() {
+            if hi + 1e-9 < last_anchor_time {
+                assert!(
+                    before.as_ref() == Some(&last),
+                    "iteration {it}: an anchor beyond the window stays as it was"
+                );
+            } else {
+                reached_at = Some(it);
+                assert!(before.as_ref() != Some(&last), "re-initialised on arrival");
+            }
+        }
+        before = Some(last);
+    }
+    assert!(
+        t.time_window_end(40).to_bits() == t1.to_bits(),
+        "exactly the whole range after the curriculum"
+    );
+    assert!(
+        reached_at.is_some_and(|it| it <= 40),
+        "the last anchor was reached"
+    );
+    assert!(
+        latest > t0 + 0.8 * (t1 - t0),
+        "late views were supervised ({latest})"
+    );
+    // Re-initialising an anchor from the one before it closes that segment's gap.
+    let mut stepper = None;
+    let mut grad = t.model.zero_grad();
+    let gap = t.model.anchor_loss(1, 1.0, &mut stepper, &mut grad);
+    t.model.refresh_anchor_from_previous(2, &mut stepper);
+    let closed = t.model.anchor_loss(1, 1.0, &mut stepper, &mut grad);
+    assert!(
+        gap > 0.0 && closed < 1e-12,
+        "anchor gap {gap:e} → {closed:e}"
+    );
+}

@@ -370,6 +370,43 @@ impl<T: Gemm> Model<T> {
         mean
     }
 
+    /// Sets anchor `k ≥ 1` to the state integrated from anchor `k − 1` to `τ_k` (the
+    /// temporal curriculum's initialisation of an anchor when the supervised window reaches
+    /// it; the anchor loss of segment `k − 1 → k` is then zero).
+    ///
+    /// # Panics
+    /// If `k` is 0 or not an anchor.
+    pub fn refresh_anchor_from_previous(&mut self, k: usize, stepper: &mut Option<Stepper<T>>) {
+        assert!(
+            k >= 1 && k < self.anchor_times.len(),
+            "anchor {k} has no previous anchor"
+        );
+        let n = self.len();
+        let mut y = Vec::with_capacity(n * STATE_STRIDE);
+        let (m, s, q) = self.anchor_state(k - 1);
+        pack_state(m, s, q, &mut y);
+        let grid = self.grid(k - 1, self.anchor_times[k]);
+        let mut st = self.stepper(stepper);
+        integrate(&mut self.field, &mut st, &grid, &mut y);
+        *stepper = Some(st);
+        self.set_anchor_from_state(k, &y);
+    }
+
+    /// Writes an ODE state into anchor `k ≥ 1`.
+    fn set_anchor_from_state(&mut self, k: usize, y: &[T]) {
+        let n = self.len();
+        let a = &mut self.anchors[k - 1];
+        a.means.resize(n, Vec3::zero());
+        a.log_scales.resize(n, Vec3::zero());
+        a.quats.resize(n, Quat::identity());
+        for i in 0..n {
+            let (p, q, s) = unpack(y, i);
+            a.means[i] = p;
+            a.quats[i] = q;
+            a.log_scales[i] = s;
+        }
+    }
+
     /// Sets anchors `1..K` to the state integrated from anchor 0 (through each anchor in
     /// turn): the initialisation of trainable anchors and the refresh of snapshot anchors.
     pub fn refresh_anchors_from_start(&mut self, stepper: &mut Option<Stepper<T>>) {
@@ -386,16 +423,7 @@ impl<T: Gemm> Model<T> {
             let mut st = self.stepper(stepper);
             integrate(&mut self.field, &mut st, &grid, &mut y);
             *stepper = Some(st);
-            let a = &mut self.anchors[k - 1];
-            a.means.resize(n, Vec3::zero());
-            a.log_scales.resize(n, Vec3::zero());
-            a.quats.resize(n, Quat::identity());
-            for i in 0..n {
-                let (p, q, s) = unpack(&y, i);
-                a.means[i] = p;
-                a.quats[i] = q;
-                a.log_scales[i] = s;
-            }
+            self.set_anchor_from_state(k, &y);
         }
     }
 }

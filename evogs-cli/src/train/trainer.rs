@@ -24,6 +24,9 @@ use evogs_math::rng::SplitMix64;
 use evogs_ode::Method;
 use std::time::Instant;
 
+/// Slack on time comparisons of the curriculum window (times are read from JSON).
+const WINDOW_EPS: f64 = 1e-9;
+
 /// Initial point positions with optional colours.
 pub type InitPoints<'a> = (&'a [[f32; 3]], Option<&'a [[f32; 3]]>);
 
@@ -79,6 +82,8 @@ pub struct StepReport {
     pub densify: Option<DensifyReport>,
     /// Whether the dynamics were switched on at this iteration.
     pub dynamics_started: bool,
+    /// Time of the supervised view.
+    pub view_time: f64,
 }
 
 /// A training run in memory.
@@ -223,9 +228,55 @@ impl Trainer {
         steps.min(self.model.canonical.sh_degree)
     }
 
+    /// The latest supervised time at iteration `it` (the temporal curriculum): during the
+    /// static warm-up the first `warmup_time_window` of the time range, then a window growing
+    /// linearly to the whole range over `curriculum_iters` dynamic iterations. Static motion
+    /// always sees every view.
+    #[must_use]
+    pub fn time_window_end(&self, it: u64) -> f64 {
+        let (t0, t1) = self.time_range;
+        let s = &self.cfg.schedule;
+        if self.model.motion == Motion::Static {
+            return t1;
+        }
+        let w0 = s.warmup_time_window;
+        #[allow(clippy::cast_precision_loss, reason = "iteration counts are small")]
+        let frac = if it <= s.warmup_iters {
+            w0
+        } else if s.curriculum_iters == 0 {
+            1.0
+        } else {
+            let f = (it - s.warmup_iters) as f64 / s.curriculum_iters as f64;
+            if f >= 1.0 { 1.0 } else { w0 + (1.0 - w0) * f }
+        };
+        if frac >= 1.0 {
+            t1
+        } else {
+            t0 + frac * (t1 - t0)
+        }
+    }
+
+    /// The next view: a fresh random permutation of the views inside the time window each
+    /// epoch, or sooner when the window has grown.
     fn next_view(&mut self) -> usize {
-        if self.order_pos >= self.order.len() {
-            self.order = (0..self.views.len()).collect();
+        let (t0, t1) = self.time_range;
+        let hi = self.time_window_end(self.iteration);
+        let focus = self.cfg.schedule.curriculum_focus;
+        if self.model.dynamics_active && hi < t1 && focus > 0.0 && self.rng.next_f64() < focus {
+            let lo = hi - (t1 - t0) / 20.0;
+            let newest: Vec<usize> = (0..self.views.len())
+                .filter(|&i| self.views[i].time > lo && self.views[i].time <= hi + WINDOW_EPS)
+                .collect();
+            if !newest.is_empty() {
+                return newest[self.rng.below(newest.len())];
+            }
+        }
+        let hi = hi + WINDOW_EPS;
+        let eligible = self.views.iter().filter(|v| v.time <= hi).count();
+        if self.order_pos >= self.order.len() || self.order.len() != eligible {
+            self.order = (0..self.views.len())
+                .filter(|&i| self.views[i].time <= hi)
+                .collect();
             for i in (1..self.order.len()).rev() {
                 let j = self.rng.below(i + 1);
                 self.order.swap(i, j);
@@ -249,9 +300,37 @@ impl Trainer {
             .collect();
     }
 
+    /// Re-initialises the trainable anchors the curriculum's window reached at this
+    /// iteration (from the anchor before each), with fresh optimiser states.
+    fn anchors_reached_by_window(&mut self) {
+        let it = self.iteration;
+        if !self.model.dynamics_active
+            || self.model.waypoints != Waypoints::Trainable
+            || self.cfg.schedule.curriculum_iters == 0
+        {
+            return;
+        }
+        let (prev, hi) = (self.time_window_end(it - 1), self.time_window_end(it));
+        for k in 1..self.model.anchor_times.len() {
+            let tau = self.model.anchor_times[k];
+            if tau > prev + WINDOW_EPS && tau <= hi + WINDOW_EPS {
+                self.model
+                    .refresh_anchor_from_previous(k, &mut self.ws.stepper);
+                self.optim.anchors[k - 1] = StateGroups::new(self.model.len());
+            }
+        }
+    }
+
     fn settings(&mut self) -> StepSettings {
         let l = &self.cfg.loss;
-        let k = self.model.anchor_times.len();
+        // Segments whose end the time window has reached (all of them without a curriculum).
+        let hi = self.time_window_end(self.iteration) + WINDOW_EPS;
+        let k = self
+            .model
+            .anchor_times
+            .iter()
+            .filter(|&&tau| tau <= hi)
+            .count();
         let anchor_segment = (self.model.waypoints == Waypoints::Trainable
             && k > 1
             && l.anchor_every > 0
@@ -310,7 +389,9 @@ impl Trainer {
             self.start_dynamics();
             report.dynamics_started = true;
         }
+        self.anchors_reached_by_window();
         let vi = self.next_view();
+        report.view_time = self.views[vi].time;
         let settings = self.settings();
         let opts = render_options(self.cfg.data.background, self.active_sh_degree(), self.par);
         let mut grad = match self.grad.take() {
@@ -358,7 +439,15 @@ impl Trainer {
         } else {
             self.cfg.schedule.warmup_iters
         };
-        let lr = LearningRates::at(&self.cfg.optim, self.extent, it, dyn_start);
+        // The position and field schedules pause while the curriculum's window grows: each
+        // new stretch of time is fitted at the rates the dynamics started with.
+        let paused = if self.model.motion == Motion::Static {
+            0
+        } else {
+            it.saturating_sub(self.cfg.schedule.warmup_iters)
+                .min(self.cfg.schedule.curriculum_iters)
+        };
+        let lr = LearningRates::at(&self.cfg.optim, self.extent, it - paused, dyn_start);
         self.optim.step(&mut self.model, &grad, &lr);
         self.grad = Some(grad);
         let s = &self.cfg.schedule;
