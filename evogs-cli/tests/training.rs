@@ -21,6 +21,7 @@ fn tiny_config() -> TrainConfig {
     c.field.width = 16;
     c.schedule.warmup_iters = 40;
     c.schedule.iterations = 90;
+    c.schedule.curriculum_iters = 20;
     c.schedule.log_every = 1;
     c.densify.from_iter = 20;
     c.densify.until_iter = 60;
@@ -129,6 +130,7 @@ fn densification_window_excludes_until_iter() {
     let mut c = tiny_config();
     c.schedule.warmup_iters = 40;
     c.schedule.iterations = 40;
+    c.schedule.curriculum_iters = 0;
     c.densify.from_iter = 10;
     c.densify.until_iter = 40;
     c.densify.interval = 20;

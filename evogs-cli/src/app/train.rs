@@ -101,6 +101,10 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig, CommandError> {
     if let Some(n) = args.iters {
         cfg.schedule.iterations = n;
         cfg.schedule.warmup_iters = cfg.schedule.warmup_iters.min(n);
+        cfg.schedule.curriculum_iters = cfg
+            .schedule
+            .curriculum_iters
+            .min(n - cfg.schedule.warmup_iters);
     }
     if let Some(s) = args.seed {
         cfg.seed = s;
@@ -171,8 +175,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
     let mut cfg = if resuming {
         let text = std::fs::read_to_string(run.config())
             .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?;
-        TrainConfig::fast()
-            .merge_toml(&text)
+        TrainConfig::from_run_toml(&text)
             .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?
     } else {
         resolve_config(args)?

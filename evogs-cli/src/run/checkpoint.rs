@@ -160,8 +160,7 @@ pub fn load_model(path: &Path) -> Result<Loaded, CheckpointError> {
     if meta["format"] != "evogs checkpoint" || meta["version"].as_u64() != Some(VERSION) {
         return Err(bad("not an evogs checkpoint of version 1".into()));
     }
-    let cfg = TrainConfig::fast()
-        .merge_toml(meta["config"].as_str().unwrap_or_default())
+    let cfg = TrainConfig::from_run_toml(meta["config"].as_str().unwrap_or_default())
         .map_err(|e| bad(format!("stored configuration: {e}")))?;
     let f = |name: &str| {
         ar.f32(name)
