@@ -211,25 +211,17 @@ pub struct ScheduleConfig {
     /// Temporal curriculum, start: the fraction of the training time range, from its start,
     /// whose views the static warm-up sees (1: all of them). A small window keeps moving
     /// objects sharp in the canonical state instead of smearing them along their paths.
-    #[serde(default = "one")]
     pub warmup_time_window: f64,
     /// Temporal curriculum, growth: dynamic iterations over which the window of supervised
     /// times grows linearly from `warmup_time_window` to the whole range (0: the whole range
     /// as soon as the dynamics start). Each trainable anchor is re-initialised, by integrating
     /// from the anchor before it, when the window reaches its time, so every new stretch of
     /// motion is learnt as a small step from motion already fitted.
-    #[serde(default)]
     pub curriculum_iters: u64,
     /// Temporal curriculum, focus: while the window grows, the probability that an
     /// iteration supervises a view from the newest twentieth of the time range inside the
     /// window (the motion not yet fitted) instead of the next view of the epoch.
-    #[serde(default)]
     pub curriculum_focus: f64,
-}
-
-/// Serde default of fields whose neutral value is one.
-fn one() -> f64 {
-    1.0
 }
 
 impl TrainConfig {

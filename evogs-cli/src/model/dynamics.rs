@@ -381,19 +381,17 @@ impl<T: Gemm> Model<T> {
             k >= 1 && k < self.anchor_times.len(),
             "anchor {k} has no previous anchor"
         );
-        let n = self.len();
-        let mut y = Vec::with_capacity(n * STATE_STRIDE);
-        let (m, s, q) = self.anchor_state(k - 1);
-        pack_state(m, s, q, &mut y);
-        let grid = self.grid(k - 1, self.anchor_times[k]);
-        let mut st = self.stepper(stepper);
-        integrate(&mut self.field, &mut st, &grid, &mut y);
-        *stepper = Some(st);
-        self.set_anchor_from_state(k, &y);
+        let mut y = self.initial_state(k - 1);
+        self.integrate_into_anchor(k, &mut y, stepper);
     }
 
-    /// Writes an ODE state into anchor `k ≥ 1`.
-    fn set_anchor_from_state(&mut self, k: usize, y: &[T]) {
+    /// Integrates the ODE state `y` of anchor `k − 1` over segment `k − 1 → k` and writes the
+    /// result into anchor `k ≥ 1` (`y` is left at `τ_k`).
+    fn integrate_into_anchor(&mut self, k: usize, y: &mut [T], stepper: &mut Option<Stepper<T>>) {
+        let grid = self.grid(k - 1, self.anchor_times[k]);
+        let mut st = self.stepper(stepper);
+        integrate(&mut self.field, &mut st, &grid, y);
+        *stepper = Some(st);
         let n = self.len();
         let a = &mut self.anchors[k - 1];
         a.means.resize(n, Vec3::zero());
@@ -410,20 +408,9 @@ impl<T: Gemm> Model<T> {
     /// Sets anchors `1..K` to the state integrated from anchor 0 (through each anchor in
     /// turn): the initialisation of trainable anchors and the refresh of snapshot anchors.
     pub fn refresh_anchors_from_start(&mut self, stepper: &mut Option<Stepper<T>>) {
-        let n = self.len();
-        let mut y = Vec::with_capacity(n * STATE_STRIDE);
-        pack_state(
-            &self.canonical.means,
-            &self.canonical.log_scales,
-            &self.canonical.quats,
-            &mut y,
-        );
+        let mut y = self.initial_state(0);
         for k in 1..self.anchor_times.len() {
-            let grid = self.grid(k - 1, self.anchor_times[k]);
-            let mut st = self.stepper(stepper);
-            integrate(&mut self.field, &mut st, &grid, &mut y);
-            *stepper = Some(st);
-            self.set_anchor_from_state(k, &y);
+            self.integrate_into_anchor(k, &mut y, stepper);
         }
     }
 }

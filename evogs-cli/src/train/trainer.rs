@@ -264,11 +264,14 @@ impl Trainer {
         let focus = self.cfg.schedule.curriculum_focus;
         if self.model.dynamics_active && hi < t1 && focus > 0.0 && self.rng.next_f64() < focus {
             let lo = hi - (t1 - t0) / 20.0;
-            let newest: Vec<usize> = (0..self.views.len())
-                .filter(|&i| self.views[i].time > lo && self.views[i].time <= hi + WINDOW_EPS)
-                .collect();
-            if !newest.is_empty() {
-                return newest[self.rng.below(newest.len())];
+            let views = &self.views;
+            let newest = || {
+                (0..views.len()).filter(|&i| views[i].time > lo && views[i].time <= hi + WINDOW_EPS)
+            };
+            let count = newest().count();
+            if count > 0 {
+                let pick = self.rng.below(count);
+                return newest().nth(pick).unwrap_or(0);
             }
         }
         let hi = hi + WINDOW_EPS;
