@@ -75,7 +75,7 @@ enum Cmd {
         #[arg(long, default_value = "test")]
         split: SplitName,
         /// Only frames with time in A:B.
-        #[arg(long)]
+        #[arg(long, allow_hyphen_values = true)]
         time_range: Option<String>,
         /// Dataset folder (default: the run's).
         #[arg(long)]
@@ -89,18 +89,8 @@ enum Cmd {
         /// Output folder.
         #[arg(long)]
         out: PathBuf,
-        /// Times A:B:N (N frames from A to B).
-        #[arg(long, default_value = "0:1:40")]
-        times: String,
-        /// Cameras: orbit or test.
-        #[arg(long, default_value = "orbit")]
-        camera: CameraPath,
-        /// Also write OUT/render.gif.
-        #[arg(long)]
-        gif: bool,
-        /// Dataset folder (default: the run's).
-        #[arg(long)]
-        data: Option<PathBuf>,
+        #[command(flatten)]
+        frames: FrameArgs,
     },
     /// Edit the motion: inside a mask, replace the learned velocity by an injected field
     /// (rigid rotation or translation) and render the result.
@@ -117,18 +107,8 @@ enum Cmd {
         /// Field: rotate:AX,AY,AZ,RATE[,CX,CY,CZ] (rad per unit time) or translate:UX,UY,UZ.
         #[arg(long)]
         field: String,
-        /// Times A:B:N.
-        #[arg(long, default_value = "0:1:40")]
-        times: String,
-        /// Cameras: orbit or test.
-        #[arg(long, default_value = "orbit")]
-        camera: CameraPath,
-        /// Also write OUT/inject.gif.
-        #[arg(long)]
-        gif: bool,
-        /// Dataset folder (default: the run's).
-        #[arg(long)]
-        data: Option<PathBuf>,
+        #[command(flatten)]
+        frames: FrameArgs,
     },
     /// Recompute reference-vector files (projection, raster, ode, so3, metrics) in f64 and
     /// print, per file, every quantity's largest error against its tolerance.
@@ -156,13 +136,30 @@ enum Cmd {
         /// Run folder.
         #[arg(long)]
         run: PathBuf,
-        /// Time.
-        #[arg(long)]
+        /// Time (any, negative too).
+        #[arg(long, allow_negative_numbers = true)]
         time: f64,
         /// Output .ply file.
         #[arg(long)]
         out: PathBuf,
     },
+}
+
+/// The frame options `render` and `inject` share.
+#[derive(clap::Args, Debug)]
+struct FrameArgs {
+    /// Times A:B:N (N frames from A to B); A may be negative (`--times -0.5:1.5:40`).
+    #[arg(long, default_value = "0:1:40", allow_hyphen_values = true)]
+    times: String,
+    /// Cameras: orbit or test.
+    #[arg(long, default_value = "orbit")]
+    camera: CameraPath,
+    /// Also write a GIF: OUT/render.gif (render) or OUT/inject.gif (inject).
+    #[arg(long)]
+    gif: bool,
+    /// Dataset folder (default: the run's).
+    #[arg(long)]
+    data: Option<PathBuf>,
 }
 
 /// Progress bars and messages on the terminal; when stderr is not a terminal (logs, CI), a
@@ -306,23 +303,15 @@ fn main() -> Result<()> {
                 path.display()
             );
         }
-        Cmd::Render {
-            run,
-            out,
-            times,
-            camera,
-            gif,
-            data,
-        } => {
-            let times = parse_times(&times).map_err(anyhow::Error::msg)?;
+        Cmd::Render { run, out, frames } => {
             let o = render_sequence(
                 &RenderArgs {
                     run,
                     out,
-                    times,
-                    camera,
-                    gif,
-                    data,
+                    times: parse_times(&frames.times).map_err(anyhow::Error::msg)?,
+                    camera: frames.camera,
+                    gif: frames.gif,
+                    data: frames.data,
                 },
                 None,
                 &mut term,
@@ -337,20 +326,17 @@ fn main() -> Result<()> {
             out,
             mask,
             field,
-            times,
-            camera,
-            gif,
-            data,
+            frames,
         } => {
             let args = InjectArgs {
                 run,
                 out,
                 mask: parse_mask(&mask).map_err(anyhow::Error::msg)?,
                 field: parse_field(&field).map_err(anyhow::Error::msg)?,
-                times: parse_times(&times).map_err(anyhow::Error::msg)?,
-                camera,
-                gif,
-                data,
+                times: parse_times(&frames.times).map_err(anyhow::Error::msg)?,
+                camera: frames.camera,
+                gif: frames.gif,
+                data: frames.data,
             };
             let frames = inject(&args, &mut term)?;
             println!("{} frames written to {}", frames.len(), args.out.display());
@@ -429,4 +415,74 @@ fn main() -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Cli, Cmd};
+    use clap::{CommandFactory, Parser};
+    use evogs_cli::app::render::CameraPath;
+
+    #[test]
+    fn command_line_definition_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn render_and_inject_read_the_shared_frame_options() {
+        let cli = Cli::try_parse_from([
+            "evogs", "render", "--run", "r", "--out", "o", "--times", "-1:2:5", "--camera", "test",
+            "--gif",
+        ])
+        .unwrap();
+        let Cmd::Render { frames, .. } = cli.cmd else {
+            panic!("not render")
+        };
+        assert_eq!(frames.times, "-1:2:5");
+        assert_eq!(frames.camera, CameraPath::Test);
+        assert!(frames.gif && frames.data.is_none());
+        let cli = Cli::try_parse_from([
+            "evogs",
+            "inject",
+            "--run",
+            "r",
+            "--out",
+            "o",
+            "--mask",
+            "sphere:0,0,0,1",
+            "--field",
+            "translate:1,0,0",
+            "--data",
+            "d",
+        ])
+        .unwrap();
+        let Cmd::Inject { frames, .. } = cli.cmd else {
+            panic!("not inject")
+        };
+        assert_eq!(frames.times, "0:1:40");
+        assert_eq!(frames.camera, CameraPath::Orbit);
+        assert!(!frames.gif);
+        assert_eq!(frames.data.as_deref(), Some(std::path::Path::new("d")));
+    }
+
+    #[test]
+    fn negative_times_parse_without_an_equals_sign() {
+        let cli = Cli::try_parse_from([
+            "evogs", "export", "--run", "r", "--time", "-0.5", "--out", "o.ply",
+        ])
+        .unwrap();
+        let Cmd::Export { time, .. } = cli.cmd else {
+            panic!("not export")
+        };
+        assert!((time + 0.5).abs() < 1e-12, "parsed {time}");
+        let cli =
+            Cli::try_parse_from(["evogs", "eval", "--run", "r", "--time-range", "-1:0.5"]).unwrap();
+        let Cmd::Eval { time_range, .. } = cli.cmd else {
+            panic!("not eval")
+        };
+        assert_eq!(time_range.as_deref(), Some("-1:0.5"));
+        // The price of accepting a leading hyphen: a forgotten value swallows the next flag,
+        // which the times parser then rejects with a message.
+        assert!(evogs_cli::app::render::parse_times("--gif").is_err());
+    }
 }
