@@ -428,35 +428,26 @@ mod tests {
         Cli::command().debug_assert();
     }
 
+    /// Parses a command line given as one string (arguments split at spaces).
+    fn parse(line: &str) -> Cmd {
+        Cli::try_parse_from(std::iter::once("evogs").chain(line.split(' ')))
+            .unwrap_or_else(|e| panic!("`{line}` does not parse: {e}"))
+            .cmd
+    }
+
     #[test]
     fn render_and_inject_read_the_shared_frame_options() {
-        let cli = Cli::try_parse_from([
-            "evogs", "render", "--run", "r", "--out", "o", "--times", "-1:2:5", "--camera", "test",
-            "--gif",
-        ])
-        .unwrap();
-        let Cmd::Render { frames, .. } = cli.cmd else {
+        let Cmd::Render { frames, .. } =
+            parse("render --run r --out o --times -1:2:5 --camera test --gif")
+        else {
             panic!("not render")
         };
         assert_eq!(frames.times, "-1:2:5");
         assert_eq!(frames.camera, CameraPath::Test);
         assert!(frames.gif && frames.data.is_none());
-        let cli = Cli::try_parse_from([
-            "evogs",
-            "inject",
-            "--run",
-            "r",
-            "--out",
-            "o",
-            "--mask",
-            "sphere:0,0,0,1",
-            "--field",
-            "translate:1,0,0",
-            "--data",
-            "d",
-        ])
-        .unwrap();
-        let Cmd::Inject { frames, .. } = cli.cmd else {
+        let Cmd::Inject { frames, .. } =
+            parse("inject --run r --out o --mask sphere:0,0,0,1 --field translate:1,0,0 --data d")
+        else {
             panic!("not inject")
         };
         assert_eq!(frames.times, "0:1:40");
@@ -467,17 +458,11 @@ mod tests {
 
     #[test]
     fn negative_times_parse_without_an_equals_sign() {
-        let cli = Cli::try_parse_from([
-            "evogs", "export", "--run", "r", "--time", "-0.5", "--out", "o.ply",
-        ])
-        .unwrap();
-        let Cmd::Export { time, .. } = cli.cmd else {
+        let Cmd::Export { time, .. } = parse("export --run r --time -0.5 --out o.ply") else {
             panic!("not export")
         };
         assert!((time + 0.5).abs() < 1e-12, "parsed {time}");
-        let cli =
-            Cli::try_parse_from(["evogs", "eval", "--run", "r", "--time-range", "-1:0.5"]).unwrap();
-        let Cmd::Eval { time_range, .. } = cli.cmd else {
+        let Cmd::Eval { time_range, .. } = parse("eval --run r --time-range -1:0.5") else {
             panic!("not eval")
         };
         assert_eq!(time_range.as_deref(), Some("-1:0.5"));

@@ -58,11 +58,16 @@ fn data(c: &TrainConfig) -> Data {
     (views, pos, col)
 }
 
+/// A trainer for `c` on the shipped scene (subsampled initial cloud).
+fn trainer(c: TrainConfig) -> Trainer {
+    let (views, pos, col) = data(&c);
+    Trainer::new(c, views, Some((&pos, Some(&col)))).expect("trainer")
+}
+
 #[test]
 fn a_short_run_lowers_the_loss_clearly() {
     let c = tiny_config();
-    let (views, pos, col) = data(&c);
-    let mut t = Trainer::new(c, views, Some((&pos, Some(&col)))).expect("trainer");
+    let mut t = trainer(c);
     let mut l1 = Vec::new();
     while !t.finished() {
         let r = t.step().expect("finite step");
@@ -135,8 +140,7 @@ fn densification_window_excludes_until_iter() {
     c.densify.until_iter = 40;
     c.densify.interval = 20;
     c.densify.opacity_reset_interval = 20;
-    let (views, pos, col) = data(&c);
-    let mut t = Trainer::new(c, views, Some((&pos, Some(&col)))).expect("trainer");
+    let mut t = trainer(c);
     let reset_logit = (0.01f32 / 0.99).ln() + 1e-5;
     while !t.finished() {
         let r = t.step().expect("finite step");
@@ -173,8 +177,7 @@ fn curriculum_window_grows_and_initialises_anchors_on_arrival() {
     c.schedule.curriculum_iters = 30;
     c.dynamics.anchors = 3;
     c.densify.from_iter = 1000;
-    let (views, pos, col) = data(&c);
-    let mut t = Trainer::new(c, views, Some((&pos, Some(&col)))).expect("trainer");
+    let mut t = trainer(c);
     let (t0, t1) = t.time_range;
     let last_anchor_time = *t.model.anchor_times.last().expect("anchors");
     let mut before: Option<Vec<evogs_math::Vec3<f32>>> = None;
