@@ -1,6 +1,8 @@
 //! The neural field at the peer's configuration (performance.md): HexPlane 2 levels × 32
-//! channels at [64, 64, 64, 25], MLP 64 wide with three heads, f32, for 5k and 20k Gaussians:
-//! one evaluation, and one VJP (which recomputes the forward internally).
+//! channels at [64, 64, 64, 25], MLP 64 wide with three heads (`paper`), and at the `fast`
+//! preset's (2 levels × 16 channels at [32, 32, 32, 16], MLP 32 wide); f32, for 5k and 20k
+//! Gaussians: one fresh evaluation, and one VJP (which reuses the stored forward pass of the same input, as
+//! in training).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use evogs_cli::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
@@ -9,14 +11,18 @@ use evogs_math::rng::SplitMix64;
 use evogs_ode::VectorField;
 use std::hint::black_box;
 
-fn field() -> NeuralField<f32> {
+fn field(preset: &str) -> NeuralField<f32> {
+    let (channels, resolution, width) = match preset {
+        "paper" => (32, [64, 64, 64, 25], 64),
+        _ => (16, [32, 32, 32, 16], 32),
+    };
     let cfg = NeuralFieldConfig {
         hexplane: HexPlaneConfig {
-            channels: 32,
-            resolution: [64, 64, 64, 25],
+            channels,
+            resolution,
             multires: vec![1, 2],
         },
-        width: 64,
+        width,
         output_scales: [10.0, 1.0, 1.0],
         zero_init_output: false,
     };
@@ -49,13 +55,24 @@ fn bench(c: &mut Criterion) {
         }
         #[allow(clippy::cast_possible_truncation, reason = "bench inputs")]
         let w: Vec<f32> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0) as f32).collect();
-        for (name, par) in [("seq", Par::Seq), ("rayon", Par::best())] {
-            let mut f = field();
+        for (preset, name, par) in [
+            ("paper", "seq", Par::Seq),
+            ("paper", "rayon", Par::best()),
+            ("fast", "seq", Par::Seq),
+            ("fast", "rayon", Par::best()),
+        ] {
+            let name = format!("{preset}/{name}");
+            let mut f = field(preset);
             f.set_count(n);
             f.set_par(par);
             let mut out = vec![0.0; n * 9];
             g.bench_function(format!("eval/{n}/{name}"), |b| {
-                b.iter(|| f.eval(black_box(0.3), &y, &mut out));
+                b.iter(|| {
+                    // A parameter change, as after every optimiser step: the stored
+                    // evaluation of the previous call must not be reused.
+                    f.params_mut();
+                    f.eval(black_box(0.3), &y, &mut out);
+                });
             });
             let mut d_y = vec![0.0; n * 9];
             let mut d_p = vec![0.0; f.n_params()];

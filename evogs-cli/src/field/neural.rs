@@ -16,12 +16,14 @@
 use super::gemm::Gemm;
 use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
 use super::mlp::{Mlp, MlpActivations, N_OUT};
-use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
+use evogs_math::{Par, Real};
 use evogs_ode::{Block, StateLayout, VectorField};
 
 /// Gaussians per work chunk.
 pub const CHUNK: usize = 256;
+/// Channels per block of the leave-one-out products (one AVX2 register of f32).
+const LANES: usize = 8;
 /// State entries per Gaussian: position (3), quaternion (4), log-scale (3).
 pub const STATE_STRIDE: usize = 10;
 
@@ -446,7 +448,8 @@ impl<T: Gemm> NeuralField<T> {
     }
 
     /// Adds the stored per-lookup sample gradients into the plane gradients, plane by plane
-    /// (in parallel over planes), each in Gaussian order.
+    /// (in parallel over planes), each in Gaussian order; a plane's records are read as one
+    /// contiguous run per chunk.
     fn scatter_planes(&self, n: usize, d_grid: &mut [T]) {
         let hex = &self.hex;
         let n_lk = hex.n_lookups();
@@ -466,11 +469,17 @@ impl<T: Gemm> NeuralField<T> {
         }
         let (lookups, d_samples) = (&self.lookups, &self.d_samples);
         let work = |(k, start, plane): (usize, usize, &mut [T])| {
-            for i in 0..n {
-                let mut lk = lookups[i * n_lk + k];
-                lk.base -= start;
-                let g = &d_samples[(i * n_lk + k) * ch..(i * n_lk + k + 1) * ch];
-                HexPlane::scatter(plane, &lk, g);
+            for c0 in (0..n).step_by(CHUNK) {
+                // The chunk's records of plane k are contiguous (see decode_chunk_vjp).
+                let rows = CHUNK.min(n - c0);
+                let first = c0 * n_lk + k * rows;
+                let lks = &lookups[first..first + rows];
+                let gs = &d_samples[first * ch..(first + rows) * ch];
+                for (lk, g) in lks.iter().zip(gs.chunks_exact(ch)) {
+                    let mut lk = *lk;
+                    lk.base -= start;
+                    HexPlane::scatter(plane, &lk, g);
+                }
             }
         };
         match self.par {
@@ -516,8 +525,44 @@ fn encode_chunk<T: Gemm>(
     }
 }
 
-/// From `d_features`, the per-lookup sample gradients (stored for the plane scatter) and the
-/// position gradients (written into `d_pos`, 3 per row).
+/// `ds_q = d_f ⊙ Π_{q' ≠ q} s_q` for the six planes of one level (`s_q` =
+/// `smp[q·C..(q+1)·C]`), written to `out[at[q]..at[q] + C]`: prefix and suffix products, no
+/// division. [`LANES`] channels at a time, so the running products stay in registers (and any
+/// channel count works).
+fn leave_one_out<T: Real>(d_f: &[T], smp: &[T], at: [usize; 6], out: &mut [T]) {
+    let ch = d_f.len();
+    let mut c0 = 0;
+    while c0 < ch {
+        let w = LANES.min(ch - c0);
+        let mut pre = [T::ONE; LANES];
+        for (q, &a) in at.iter().enumerate() {
+            let (d, s) = (
+                &mut out[a + c0..a + c0 + w],
+                &smp[q * ch + c0..q * ch + c0 + w],
+            );
+            for k in 0..w {
+                d[k] = d_f[c0 + k] * pre[k];
+                pre[k] *= s[k];
+            }
+        }
+        let mut suf = [T::ONE; LANES];
+        for (q, &a) in at.iter().enumerate().rev() {
+            let (d, s) = (
+                &mut out[a + c0..a + c0 + w],
+                &smp[q * ch + c0..q * ch + c0 + w],
+            );
+            for k in 0..w {
+                d[k] *= suf[k];
+                suf[k] *= s[k];
+            }
+        }
+        c0 += w;
+    }
+}
+
+/// From `d_features`, the per-lookup sample gradients and lookups (stored for the plane
+/// scatter, plane-major within the chunk: record `(l·6 + q)·rows + r`) and the position
+/// gradients (written into `d_pos`, 3 per row).
 fn decode_chunk_vjp<T: Gemm>(
     hex: &HexPlane,
     params: &[T],
@@ -533,42 +578,27 @@ fn decode_chunk_vjp<T: Gemm>(
     let ch = hex.channels();
     let n_lk = hex.n_lookups();
     let fd = hex.feature_dim();
-    let mut prefix_buf = [T::ZERO; 256];
-    let mut suffix_buf = [T::ZERO; 256];
-    assert!(ch <= 256, "at most 256 channels");
-    let prefix = &mut prefix_buf[..ch];
-    let suffix = &mut suffix_buf[..ch];
     for r in 0..rows {
         let p = [pos[r * stride], pos[r * stride + 1], pos[r * stride + 2]];
         let (c, dcdp) = hex.coords(p, t);
         let mut d_c = [T::ZERO; 4];
         for l in 0..hex.levels() {
             let d_f = &s.d_features[r * fd + l * ch..r * fd + (l + 1) * ch];
-            // ds_q = d_f ⊙ Π_{q' ≠ q} s_q' via prefix and suffix products (no division).
             let base = (r * n_lk + l * 6) * ch;
             let smp = &s.samples[base..base + 6 * ch];
-            let dsl = &mut dss[base..base + 6 * ch];
-            prefix.fill(T::ONE);
-            for (ds, sq) in dsl.chunks_exact_mut(ch).zip(smp.chunks_exact(ch)) {
-                for (((d, pr), &f), &sv) in ds.iter_mut().zip(prefix.iter_mut()).zip(d_f).zip(sq) {
-                    *d = f * *pr;
-                    *pr *= sv;
-                }
-            }
-            suffix.fill(T::ONE);
+            // Records are plane-major within the chunk, so the scatter streams each plane's
+            // records: lookup q of this level and row is record (l·6 + q)·rows + r.
+            let record = |q: usize| (l * 6 + q) * rows + r;
+            leave_one_out(d_f, smp, core::array::from_fn(|q| record(q) * ch), dss);
+            // Last plane first: the position gradient sums in the order it always has.
             for q in (0..6).rev() {
-                let ds = &mut dsl[q * ch..(q + 1) * ch];
-                let sq = &smp[q * ch..(q + 1) * ch];
-                for ((d, su), &sv) in ds.iter_mut().zip(suffix.iter_mut()).zip(sq) {
-                    *d *= *su;
-                    *su *= sv;
-                }
+                let ds = &dss[record(q) * ch..(record(q) + 1) * ch];
                 let lk = hex.lookup(l, q, &c);
                 let (gu, gv) = HexPlane::sample_coord_grad(params, &lk, ds);
                 let (i, j) = super::hexplane::PLANE_AXES[q];
                 d_c[i] += gu;
                 d_c[j] += gv;
-                lks[r * n_lk + l * 6 + q] = lk;
+                lks[record(q)] = lk;
             }
         }
         for a in 0..3 {
