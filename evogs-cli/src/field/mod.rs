@@ -1,5 +1,6 @@
 //! The neural velocity field: HexPlane encoder + MLP, batched, with exact VJPs.
 
+mod chunk;
 pub mod gemm;
 pub mod hexplane;
 pub mod mlp;
