@@ -244,6 +244,7 @@ impl TrainConfig {
             width: 32,
             output_scales: [10.0, 1.0, 1.0],
             zero_init_output: true,
+            twist: false,
         };
         c.dynamics.anchors = 5;
         c.dynamics.step_fraction = 0.25;
@@ -307,6 +308,7 @@ impl TrainConfig {
                 width: 64,
                 output_scales: [10.0, 1.0, 1.0],
                 zero_init_output: true,
+                twist: false,
             },
             loss: LossConfig {
                 lambda_ssim: 0.2,

@@ -9,12 +9,13 @@ use evogs_math::rng::SplitMix64;
 use evogs_ode::VectorField;
 
 fn small_field(time: TimeMapping) -> NeuralField<f64> {
-    field_with_channels(time, 3)
+    field_with(time, 3, false)
 }
 
 /// The small field with `channels` per plane (the channel loops work in blocks of 8 with a
-/// scalar tail, so 3 covers the tail alone and 10 a block and a tail).
-fn field_with_channels(time: TimeMapping, channels: usize) -> NeuralField<f64> {
+/// scalar tail, so 3 covers the tail alone and 10 a block and a tail), its velocity read as a
+/// twist or not.
+fn field_with(time: TimeMapping, channels: usize, twist: bool) -> NeuralField<f64> {
     let cfg = NeuralFieldConfig {
         hexplane: HexPlaneConfig {
             channels,
@@ -24,6 +25,7 @@ fn field_with_channels(time: TimeMapping, channels: usize) -> NeuralField<f64> {
         width: 8,
         output_scales: [10.0, 1.0, 1.0],
         zero_init_output: false,
+        twist,
     };
     let mut f = NeuralField::new(&cfg, [-1.0, -1.5, -0.5], [1.0, 1.0, 1.5], time, 7);
     // Perturb the time planes away from 1 so that time actually matters.
@@ -136,7 +138,49 @@ fn vjp_matches_central_differences_across_a_channel_block_and_its_tail() {
         t_min: 0.0,
         t_max: 1.0,
     };
-    check_vjp_against_central_differences(&mut field_with_channels(time, 10), 5, "10 channels");
+    check_vjp_against_central_differences(&mut field_with(time, 10, false), 5, "10 channels");
+}
+
+#[test]
+fn twist_velocity_vjp_matches_central_differences() {
+    // v = a + ω × (x − c): the position gradient gains w × ω, the angular-velocity head (and
+    // its output scale) gains (x − c) × w.
+    let time = TimeMapping::Normalized {
+        t_min: 0.0,
+        t_max: 1.0,
+    };
+    check_vjp_against_central_differences(&mut field_with(time, 3, true), 5, "twist");
+}
+
+#[test]
+fn twist_velocity_is_the_heads_plus_omega_cross_the_arm() {
+    let time = TimeMapping::Raw;
+    let (mut plain, mut twist) = (field_with(time, 3, false), field_with(time, 3, true));
+    let n = 4;
+    let y = states(n, 13);
+    plain.set_count(n);
+    twist.set_count(n);
+    let (mut a, mut b) = (vec![0.0; 9 * n], vec![0.0; 9 * n]);
+    plain.eval(0.3, &y, &mut a);
+    twist.eval(0.3, &y, &mut b);
+    // The box is [-1, 1] × [-1.5, 1] × [-0.5, 1.5]: centre (0, -0.25, 0.5).
+    let c = [0.0, -0.25, 0.5];
+    for i in 0..n {
+        let (o, p) = (&a[9 * i..9 * i + 9], &y[10 * i..10 * i + 3]);
+        let r = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+        let cross = [
+            o[4] * r[2] - o[5] * r[1],
+            o[5] * r[0] - o[3] * r[2],
+            o[3] * r[1] - o[4] * r[0],
+        ];
+        for k in 0..9 {
+            let want = if k < 3 { o[k] + cross[k] } else { o[k] };
+            assert!(
+                (b[9 * i + k] - want).abs() < 1e-14,
+                "Gaussian {i} output {k}"
+            );
+        }
+    }
 }
 
 #[test]
@@ -153,12 +197,12 @@ fn batched_vjp_over_several_chunks_is_the_sum_of_single_gaussian_vjps() {
     let y = states(n, 13);
     let mut rng = SplitMix64::new(17);
     let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();
-    let mut f = field_with_channels(time, 10);
+    let mut f = field_with(time, 10, false);
     f.set_count(n);
     let mut d_y = vec![0.0; n * 9];
     let mut d_p = vec![0.0; f.n_params()];
     f.vjp(0.42, &y, &w, &mut d_y, &mut d_p);
-    let mut g = field_with_channels(time, 10);
+    let mut g = field_with(time, 10, false);
     g.set_count(1);
     let mut sum_p = vec![0.0; g.n_params()];
     for i in 0..n {

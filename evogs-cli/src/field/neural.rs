@@ -3,7 +3,8 @@
 //!
 //! Per Gaussian the field maps a position `x` and a time `t` to
 //! `[v (3), ω (3), ṡ (3)] = MLP(HexPlane(x, t))`: the velocity, the **world-frame** angular
-//! velocity and the log-scale rate. As a vector field on the state layout
+//! velocity and the log-scale rate (with [`NeuralFieldConfig::twist`] the velocity is
+//! `a + ω × (x − c)`, `a` the velocity head). As a vector field on the state layout
 //! `[Euclidean(3) position, So3 rotation, Euclidean(3) log-scale]` it depends on the position
 //! only, so its VJP has zero rotation and log-scale components.
 //!
@@ -17,8 +18,8 @@ use super::chunk::{ChunkScratch, decode_chunk_vjp, encode_chunk};
 use super::gemm::Gemm;
 use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
-use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
+use evogs_math::{Par, Vec3};
 use evogs_ode::{Block, StateLayout, VectorField};
 
 /// Gaussians per work chunk.
@@ -49,6 +50,13 @@ pub struct NeuralFieldConfig {
     /// Xavier there too (`false`).
     #[serde(default)]
     pub zero_init_output: bool,
+    /// Read the velocity head as the translational part `a` of a local twist (an SE(3)
+    /// velocity field): `v(x, t) = a(x, t) + ω(x, t) × (x − c)`, with `ω` the angular-velocity
+    /// head and `c` the centre of the field's box. A rigid motion then has a spatially
+    /// constant `(a, ω)` over the body, and the `ω` that turns the Gaussians is the one that
+    /// moves their centres. `false` (the released code): `v = a`.
+    #[serde(default)]
+    pub twist: bool,
 }
 
 /// One work item of the batched VJP: chunk index, MLP gradient partial, lookups, sample
@@ -83,6 +91,8 @@ pub struct NeuralField<T> {
     /// Incremented on every parameter change: stored evaluations of older parameters are
     /// never reused.
     generation: u64,
+    /// The twist reference point `c` (the box centre) when the velocity is a twist.
+    twist_centre: Option<[T; 3]>,
     /// Use counter for the least-recently-used replacement.
     clock: u64,
 }
@@ -140,6 +150,9 @@ impl<T: Gemm> NeuralField<T> {
             evals: Vec::new(),
             capacity: 1,
             generation: 0,
+            twist_centre: cfg
+                .twist
+                .then(|| core::array::from_fn(|a| T::from_f64(0.5 * (aabb_min[a] + aabb_max[a])))),
             clock: 0,
         }
     }
@@ -253,6 +266,19 @@ impl<T: Gemm> NeuralField<T> {
     /// # Panics
     /// If the buffers are too short for `n`.
     pub fn eval_batch(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
+        self.eval_heads(t, positions, stride, n, out);
+        if let Some(c) = self.twist_centre {
+            let c = Vec3::from_array(c);
+            for (i, o) in out[..n * N_OUT].chunks_exact_mut(N_OUT).enumerate() {
+                let r = Vec3::from_slice(&positions[i * stride..]) - c;
+                Vec3::from_slice(&o[3..]).cross(r).add_to(o);
+            }
+        }
+    }
+
+    /// The head outputs `[a, ω, ṡ]` (scaled) at `n` positions: [`eval_batch`](Self::eval_batch)
+    /// without the twist's `ω × (x − c)`.
+    fn eval_heads(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
         assert!(
             n == 0 || (positions.len() >= (n - 1) * stride + 3 && out.len() >= n * N_OUT),
             "batch buffers too short"
@@ -348,6 +374,10 @@ impl<T: Gemm> NeuralField<T> {
         };
         self.touch(slot);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
+        let twist = self.twist_centre.map(|c| {
+            let omega_scale = params[hex.n_params() + mlp.scales_offset() + 1];
+            (Vec3::from_array(c), omega_scale)
+        });
         let scratches = &mut self.evals[slot].chunks[..n_chunks];
         let run = |(ci, ((partial, (lks, (dss, dp))), scratch)): VjpItem<'_, T>| {
             let rows = lks.len() / n_lk;
@@ -363,7 +393,18 @@ impl<T: Gemm> NeuralField<T> {
                     &mut out[..rows * N_OUT],
                 );
             }
-            let d_o = &d_out[ci * CHUNK * N_OUT..ci * CHUNK * N_OUT + rows * N_OUT];
+            let mut d_o = &d_out[ci * CHUNK * N_OUT..ci * CHUNK * N_OUT + rows * N_OUT];
+            // Twist: v = a + ω × r with r = x − c, so for a cotangent w of v,
+            // ∂/∂ω += r × w and ∂/∂x += w × ω (the head VJP below sees the first).
+            let mut d_heads = [T::ZERO; CHUNK * N_OUT];
+            if let Some((c, _)) = twist {
+                d_heads[..rows * N_OUT].copy_from_slice(d_o);
+                for (r, dh) in d_heads[..rows * N_OUT].chunks_exact_mut(N_OUT).enumerate() {
+                    let arm = Vec3::from_slice(&pos[r * stride..]) - c;
+                    arm.cross(Vec3::from_slice(dh)).add_to(&mut dh[3..]);
+                }
+                d_o = &d_heads[..rows * N_OUT];
+            }
             let ChunkScratch {
                 features,
                 d_features,
@@ -380,6 +421,13 @@ impl<T: Gemm> NeuralField<T> {
                 partial,
             );
             decode_chunk_vjp(hex, params, t, pos, stride, rows, scratch, lks, dss, dp);
+            if let Some((_, omega_scale)) = twist {
+                let w_v = &d_out[ci * CHUNK * N_OUT..];
+                for (r, d) in dp.chunks_exact_mut(3).take(rows).enumerate() {
+                    let omega = Vec3::from_slice(&scratch.act.raw[r * N_OUT + 3..]) * omega_scale;
+                    Vec3::from_slice(&w_v[r * N_OUT..]).cross(omega).add_to(d);
+                }
+            }
         };
         match self.par {
             Par::Seq => self

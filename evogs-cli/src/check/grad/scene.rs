@@ -72,6 +72,7 @@ fn field(rng: &mut SplitMix64, seed: u64) -> NeuralField<f64> {
         width: 6,
         output_scales: [1.0, 1.0, 0.5],
         zero_init_output: false,
+        twist: false,
     };
     let mut field = NeuralField::new(
         &cfg,
