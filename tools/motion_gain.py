@@ -1,0 +1,104 @@
+#!/usr/bin/env python3
+"""How much of the true rigid motion a trained run reproduces (the README's "x % of the way").
+
+For each rigid body of the `toys` scene (cube, ball) the script exports the run's Gaussians at
+t = 0 and at a few later times (`evogs export`), selects the Gaussians that lie inside the body
+at t = 0 (opacity > 0.2) using the ground-truth body-to-world poses of the scene's `meta.json`,
+and compares each selected Gaussian's displacement from t = 0 with the displacement the true
+rigid motion gives the same point:
+
+- |model|, |gt|: medians of the two displacement lengths;
+- cos: median cosine between them (1: the right direction);
+- gain: median projection of the model's displacement on the true one, (d_model · d_gt) / |d_gt|²
+  (1: the whole motion, 0: none).
+
+Usage (numpy needed; `meta.json` ships with ../shared/data/toys, not with the repository):
+
+    python3 tools/motion_gain.py RUN [--meta ../shared/data/toys/meta.json]
+                                     [--evogs target/release/evogs] [--times 0.06,0.12,0.25]
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import tempfile
+
+import numpy as np
+
+
+def read_ply(path):
+    """The vertex properties of a binary little-endian float32 .ply (as `evogs export` writes)."""
+    with open(path, "rb") as f:
+        n, props = 0, []
+        while True:
+            line = f.readline().decode().strip()
+            if line.startswith("element vertex"):
+                n = int(line.split()[-1])
+            elif line.startswith("property"):
+                props.append(line.split()[-1])
+            elif line == "end_header":
+                break
+        a = np.frombuffer(f.read(), dtype="<f4").reshape(n, len(props))
+    return {k: a[:, i] for i, k in enumerate(props)}
+
+
+def export(evogs, run, t, tmp):
+    out = os.path.join(tmp, "t_%s.ply" % t)
+    cmd = [evogs, "export", "--run", run, "--time", repr(t), "--out", out]
+    subprocess.run(cmd, check=True, capture_output=True)
+    a = read_ply(out)
+    return np.stack([a["x"], a["y"], a["z"]], 1), 1.0 / (1.0 + np.exp(-a["opacity"]))
+
+
+def inside(body, local):
+    """Points (body frame) inside the body, with a small margin."""
+    if body == "cube":
+        return np.abs(local).max(1) < 0.27
+    return np.linalg.norm(local, axis=1) < 0.24  # ball, radius 0.22
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("run")
+    ap.add_argument("--meta", default="../shared/data/toys/meta.json")
+    ap.add_argument("--evogs", default="target/release/evogs")
+    ap.add_argument("--times", default="0.06,0.12,0.25")
+    args = ap.parse_args()
+    frames = json.load(open(args.meta))["frames"]["train"]
+    times = np.array([f["time"] for f in frames])
+
+    def pose(i, body):
+        return np.array(frames[i]["objects"][body])
+
+    with tempfile.TemporaryDirectory() as tmp:
+        p0, opacity = export(args.evogs, args.run, float(times[0]), tmp)
+        homog0 = np.c_[p0, np.ones(len(p0))].T
+        bodies = ("cube", "ball")
+        sel = {}
+        for b in bodies:
+            local = (np.linalg.inv(pose(0, b)) @ homog0).T[:, :3]
+            sel[b] = inside(b, local) & (opacity > 0.2)
+        print("Gaussians per body:", {b: int(m.sum()) for b, m in sel.items()})
+        for want in (float(s) for s in args.times.split(",")):
+            i = int(np.argmin(np.abs(times - want)))
+            p, _ = export(args.evogs, args.run, float(times[i]), tmp)
+            row = []
+            for b in bodies:
+                m = sel[b]
+                moved = pose(i, b) @ np.linalg.inv(pose(0, b)) @ homog0[:, m]
+                d_gt = moved[:3].T - p0[m]
+                d_model = p[m] - p0[m]
+                dot = (d_model * d_gt).sum(1)
+                n_gt, n_model = np.linalg.norm(d_gt, axis=1), np.linalg.norm(d_model, axis=1)
+                cos = dot / (n_model * n_gt + 1e-12)
+                gain = dot / (n_gt * n_gt + 1e-12)
+                row.append(
+                    "%s |model| %.3f |gt| %.3f cos %.2f gain %.2f"
+                    % (b, np.median(n_model), np.median(n_gt), np.median(cos), np.median(gain))
+                )
+            print("t = %.3f  " % times[i] + "   ".join(row))
+
+
+if __name__ == "__main__":
+    main()
