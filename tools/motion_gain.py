@@ -12,9 +12,10 @@ rigid motion gives the same point:
 - gain: median projection of the model's displacement on the true one, (d_model · d_gt) / |d_gt|²
   (1: the whole motion, 0: none).
 
-Usage (numpy needed; `meta.json` ships with ../shared/data/toys, not with the repository):
+Usage (numpy needed; the scene description defaults to `tools/data/toys-meta.json`, a copy of
+the `toys` scene's `meta.json`, which also covers `toys-mini`, whose times are a subset):
 
-    python3 tools/motion_gain.py RUN [--meta ../shared/data/toys/meta.json]
+    python3 tools/motion_gain.py RUN [--meta tools/data/toys-meta.json]
                                      [--evogs target/release/evogs] [--times 0.06,0.12,0.25]
 """
 
@@ -61,7 +62,8 @@ def inside(body, local):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("run")
-    ap.add_argument("--meta", default="../shared/data/toys/meta.json")
+    here = os.path.dirname(os.path.abspath(__file__))
+    ap.add_argument("--meta", default=os.path.join(here, "data", "toys-meta.json"))
     ap.add_argument("--evogs", default="target/release/evogs")
     ap.add_argument("--times", default="0.06,0.12,0.25")
     args = ap.parse_args()

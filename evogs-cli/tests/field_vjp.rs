@@ -8,6 +8,12 @@ use evogs_math::diff::{GradCheck, central_gradient, central_jvp, vjp_dot_test};
 use evogs_math::rng::SplitMix64;
 use evogs_ode::VectorField;
 
+/// Training times normalised over [0, 1].
+const UNIT_TIME: TimeMapping = TimeMapping::Normalized {
+    t_min: 0.0,
+    t_max: 1.0,
+};
+
 fn small_field(time: TimeMapping) -> NeuralField<f64> {
     field_with(time, 3, false)
 }
@@ -120,13 +126,7 @@ fn check_vjp_against_central_differences(f: &mut NeuralField<f64>, n: usize, lab
 
 #[test]
 fn vjp_matches_central_differences_for_positions_and_parameters() {
-    for time in [
-        TimeMapping::Normalized {
-            t_min: 0.0,
-            t_max: 1.0,
-        },
-        TimeMapping::Raw,
-    ] {
+    for time in [UNIT_TIME, TimeMapping::Raw] {
         check_vjp_against_central_differences(&mut small_field(time), 5, &format!("{time:?}"));
     }
 }
@@ -134,10 +134,7 @@ fn vjp_matches_central_differences_for_positions_and_parameters() {
 #[test]
 fn vjp_matches_central_differences_across_a_channel_block_and_its_tail() {
     // 10 channels: one 8-channel block of the vectorised loops and a scalar tail of 2.
-    let time = TimeMapping::Normalized {
-        t_min: 0.0,
-        t_max: 1.0,
-    };
+    let time = UNIT_TIME;
     check_vjp_against_central_differences(&mut field_with(time, 10, false), 5, "10 channels");
 }
 
@@ -145,10 +142,7 @@ fn vjp_matches_central_differences_across_a_channel_block_and_its_tail() {
 fn twist_velocity_vjp_matches_central_differences() {
     // v = a + ω × (x − c): the position gradient gains w × ω, the angular-velocity head (and
     // its output scale) gains (x − c) × w.
-    let time = TimeMapping::Normalized {
-        t_min: 0.0,
-        t_max: 1.0,
-    };
+    let time = UNIT_TIME;
     check_vjp_against_central_differences(&mut field_with(time, 3, true), 5, "twist");
 }
 
@@ -189,10 +183,7 @@ fn batched_vjp_over_several_chunks_is_the_sum_of_single_gaussian_vjps() {
     // plane-major): the batched VJP must equal the Gaussian-by-Gaussian VJPs, summed over
     // Gaussians for the parameters. (Central differences over this many Gaussians would sit
     // on ReLU and cell kinks; the single-Gaussian VJP is checked against them above.)
-    let time = TimeMapping::Normalized {
-        t_min: 0.0,
-        t_max: 1.0,
-    };
+    let time = UNIT_TIME;
     let n = evogs_cli::field::neural::CHUNK + 37;
     let y = states(n, 13);
     let mut rng = SplitMix64::new(17);
@@ -225,10 +216,7 @@ fn batched_vjp_over_several_chunks_is_the_sum_of_single_gaussian_vjps() {
 
 #[test]
 fn vjp_passes_the_dot_product_test() {
-    let mut f = small_field(TimeMapping::Normalized {
-        t_min: 0.0,
-        t_max: 1.0,
-    });
+    let mut f = small_field(UNIT_TIME);
     let n = 7;
     f.set_count(n);
     let y = states(n, 9);
@@ -253,10 +241,7 @@ fn vjp_passes_the_dot_product_test() {
             central_jvp(|x: &[f64], o: &mut [f64]| eval(&mut f, x, o), &x0, v, out);
         },
         |w: &[f64], out: &mut [f64]| {
-            let mut g = small_field(TimeMapping::Normalized {
-                t_min: 0.0,
-                t_max: 1.0,
-            });
+            let mut g = small_field(UNIT_TIME);
             g.params_mut().copy_from_slice(&p0);
             g.set_count(n);
             let mut d_y = vec![0.0; 9 * n];
@@ -277,10 +262,7 @@ fn vjp_passes_the_dot_product_test() {
 #[cfg(feature = "rayon")]
 #[test]
 fn parallel_evaluation_is_bitwise_sequential() {
-    let mut f = small_field(TimeMapping::Normalized {
-        t_min: 0.0,
-        t_max: 1.0,
-    });
+    let mut f = small_field(UNIT_TIME);
     let n = 1000; // several chunks
     f.set_count(n);
     let y = states(n, 13);
@@ -306,10 +288,7 @@ fn stored_evaluations_give_bitwise_identical_outputs_and_vjps() {
     let mut rng = SplitMix64::new(31);
     let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();
     let run = |capacity: usize, interleave: bool| {
-        let mut f = small_field(TimeMapping::Normalized {
-            t_min: 0.0,
-            t_max: 1.0,
-        });
+        let mut f = small_field(UNIT_TIME);
         f.set_count(n);
         f.set_eval_capacity(capacity);
         let mut outs = Vec::new();

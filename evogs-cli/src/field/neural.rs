@@ -91,8 +91,8 @@ pub struct NeuralField<T> {
     /// Incremented on every parameter change: stored evaluations of older parameters are
     /// never reused.
     generation: u64,
-    /// The twist reference point `c` (the box centre) when the velocity is a twist.
-    twist_centre: Option<[T; 3]>,
+    /// The velocity is a twist about the box centre ([`NeuralFieldConfig::twist`]).
+    twist: bool,
     /// Use counter for the least-recently-used replacement.
     clock: u64,
 }
@@ -150,11 +150,16 @@ impl<T: Gemm> NeuralField<T> {
             evals: Vec::new(),
             capacity: 1,
             generation: 0,
-            twist_centre: cfg
-                .twist
-                .then(|| core::array::from_fn(|a| T::from_f64(0.5 * (aabb_min[a] + aabb_max[a])))),
+            twist: cfg.twist,
             clock: 0,
         }
+    }
+
+    /// The twist reference point `c` (the box centre) when the velocity is a twist.
+    fn twist_centre(&self) -> Option<Vec3<T>> {
+        let (lo, hi) = self.hex.aabb();
+        self.twist
+            .then(|| Vec3::from_array(core::array::from_fn(|a| T::from_f64(0.5 * (lo[a] + hi[a])))))
     }
 
     /// The HexPlane layout.
@@ -267,8 +272,7 @@ impl<T: Gemm> NeuralField<T> {
     /// If the buffers are too short for `n`.
     pub fn eval_batch(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
         self.eval_heads(t, positions, stride, n, out);
-        if let Some(c) = self.twist_centre {
-            let c = Vec3::from_array(c);
+        if let Some(c) = self.twist_centre() {
             for (i, o) in out[..n * N_OUT].chunks_exact_mut(N_OUT).enumerate() {
                 let r = Vec3::from_slice(&positions[i * stride..]) - c;
                 Vec3::from_slice(&o[3..]).cross(r).add_to(o);
@@ -374,10 +378,9 @@ impl<T: Gemm> NeuralField<T> {
         };
         self.touch(slot);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
-        let twist = self.twist_centre.map(|c| {
-            let omega_scale = params[hex.n_params() + mlp.scales_offset() + 1];
-            (Vec3::from_array(c), omega_scale)
-        });
+        let twist = self
+            .twist_centre()
+            .map(|c| (c, params[hex.n_params() + mlp.scales_offset() + 1]));
         let scratches = &mut self.evals[slot].chunks[..n_chunks];
         let run = |(ci, ((partial, (lks, (dss, dp))), scratch)): VjpItem<'_, T>| {
             let rows = lks.len() / n_lk;
@@ -396,8 +399,9 @@ impl<T: Gemm> NeuralField<T> {
             let mut d_o = &d_out[ci * CHUNK * N_OUT..ci * CHUNK * N_OUT + rows * N_OUT];
             // Twist: v = a + ω × r with r = x − c, so for a cotangent w of v,
             // ∂/∂ω += r × w and ∂/∂x += w × ω (the head VJP below sees the first).
-            let mut d_heads = [T::ZERO; CHUNK * N_OUT];
+            let mut d_heads;
             if let Some((c, _)) = twist {
+                d_heads = [T::ZERO; CHUNK * N_OUT];
                 d_heads[..rows * N_OUT].copy_from_slice(d_o);
                 for (r, dh) in d_heads[..rows * N_OUT].chunks_exact_mut(N_OUT).enumerate() {
                     let arm = Vec3::from_slice(&pos[r * stride..]) - c;
