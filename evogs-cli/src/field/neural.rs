@@ -54,7 +54,9 @@ pub struct NeuralFieldConfig {
     /// velocity field): `v(x, t) = a(x, t) + ω(x, t) × (x − c)`, with `ω` the angular-velocity
     /// head and `c` the centre of the field's box. A rigid motion then has a spatially
     /// constant `(a, ω)` over the body, and the `ω` that turns the Gaussians is the one that
-    /// moves their centres. `false` (the released code): `v = a`.
+    /// moves their centres; the velocity coherence then compares the twists `(a, ω)` of
+    /// neighbours, so it costs nothing for any rigid motion. `false` (the released code):
+    /// `v = a`.
     #[serde(default)]
     pub twist: bool,
 }
@@ -155,8 +157,10 @@ impl<T: Gemm> NeuralField<T> {
         }
     }
 
-    /// The twist reference point `c` (the box centre) when the velocity is a twist.
-    fn twist_centre(&self) -> Option<Vec3<T>> {
+    /// The twist reference point `c` (the box centre) when the velocity is a twist
+    /// `v = a + ω × (x − c)`, else `None`.
+    #[must_use]
+    pub fn twist_centre(&self) -> Option<Vec3<T>> {
         let (lo, hi) = self.hex.aabb();
         self.twist
             .then(|| Vec3::from_array(core::array::from_fn(|a| T::from_f64(0.5 * (lo[a] + hi[a])))))

@@ -1,4 +1,5 @@
-//! Velocity coherence (method.md section 6, the anisotropic kNN form of the released code).
+//! Velocity coherence (method.md section 6, the anisotropic kNN form of the released code),
+//! and its twist form for the twist velocity.
 //!
 //! For a sample of M Gaussians at their (detached) positions `x_i` with velocities
 //! `v_i = v(x_i, t)`: the k nearest neighbours of each sample point within the sample,
@@ -10,6 +11,13 @@
 //! L = Σ w_ij c_ij / (Σ w_ij + 1e-8)
 //! ```
 //!
+//! A rigid rotation has `Δv = ω × (x_i − x_j) ≠ 0`, so this form penalises turning. With
+//! the twist velocity `v = a + ω × (x − c)` a rigid motion is a constant `(a, ω)`, and the
+//! twist form ([`twist_coherence_loss`]) compares the twists instead:
+//! `c_ij = |Δa_⊥|² + 0.2·|Δa_∥|² + ℓ²·|Δω|²`, with `ℓ` a lever arm that puts `Δω` in
+//! velocity units (the caller passes the RMS distance of the sample from `c`). It costs
+//! nothing for any rigid motion and penalises bending and tearing alike.
+//!
 //! The weights depend only on the detached positions, so the gradient flows to the
 //! velocities (and from there to the field's parameters) only.
 
@@ -17,6 +25,77 @@
 pub const COHERENCE_K: usize = 8;
 /// Weight of the parallel (stretching) part.
 const PARALLEL_WEIGHT: f64 = 0.2;
+
+/// One neighbour pair: `(i, j, w_ij, r̂_ij)`.
+type Pair = (usize, usize, f64, [f64; 3]);
+
+/// The k nearest neighbours of every sample point (brute force, self excluded, ties broken
+/// by index for determinism) with their weights `w_ij` and unit offsets `r̂_ij`; returns the
+/// pairs and `Σ w_ij + 1e-8`.
+fn neighbour_pairs(positions: &[[f64; 3]], k: usize) -> (Vec<Pair>, f64) {
+    let m = positions.len();
+    let k = k.min(m - 1);
+    let dist = |a: &[f64; 3], b: &[f64; 3]| {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    let mut nbrs: Vec<(usize, f64)> = Vec::with_capacity(m * k);
+    let mut cand: Vec<(f64, usize)> = Vec::with_capacity(m);
+    for i in 0..m {
+        cand.clear();
+        cand.extend(
+            (0..m)
+                .filter(|&j| j != i)
+                .map(|j| (dist(&positions[i], &positions[j]), j)),
+        );
+        cand.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut best: Vec<(f64, usize)> = cand[..k].to_vec();
+        best.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        nbrs.extend(best.into_iter().map(|(d, j)| (j, d)));
+    }
+    #[allow(clippy::cast_precision_loss, reason = "counts are small")]
+    let mean_d = nbrs.iter().map(|&(_, d)| d).sum::<f64>() / nbrs.len() as f64;
+    let sigma = (0.5 * mean_d).max(1e-12);
+    let mut sum_w = 0.0;
+    let mut pairs = Vec::with_capacity(nbrs.len());
+    for i in 0..m {
+        for &(j, d) in &nbrs[i * k..(i + 1) * k] {
+            let w = (-d / sigma).exp();
+            let inv = 1.0 / d.clamp(1e-6, 10.0);
+            let r: [f64; 3] = core::array::from_fn(|a| (positions[i][a] - positions[j][a]) * inv);
+            sum_w += w;
+            pairs.push((i, j, w, r));
+        }
+    }
+    (pairs, sum_w + 1e-8)
+}
+
+/// The anisotropic cost `|Δv_⊥|² + 0.2·|Δv_∥|²` of a difference `dv` along `r̂` and its
+/// gradient with respect to `dv`.
+fn anisotropic_cost(dv: &[f64; 3], r: &[f64; 3]) -> (f64, [f64; 3]) {
+    // With a = Δv·r̂ and s = |r̂|² (1 unless d was clamped):
+    // c = |Δv − a r̂|² + 0.2 |a r̂|² = |Δv|² + a²((1 + 0.2) s − 2),
+    // ∂c/∂Δv = 2Δv + 2a((1 + 0.2) s − 2) r̂.
+    let a = dv[0] * r[0] + dv[1] * r[1] + dv[2] * r[2];
+    let s2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    let f = (1.0 + PARALLEL_WEIGHT) * s2 - 2.0;
+    let c = dv.iter().map(|x| x * x).sum::<f64>() + a * a * f;
+    (
+        c,
+        core::array::from_fn(|q| 2.0 * dv[q] + 2.0 * a * f * r[q]),
+    )
+}
+
+fn diff(u: &[[f64; 3]], i: usize, j: usize) -> [f64; 3] {
+    core::array::from_fn(|a| u[i][a] - u[j][a])
+}
+
+/// Adds `scale·g` to `d[i]` and subtracts it from `d[j]`.
+fn scatter_pair(d: &mut [[f64; 3]], i: usize, j: usize, scale: f64, g: &[f64; 3]) {
+    for q in 0..3 {
+        d[i][q] += scale * g[q];
+        d[j][q] -= scale * g[q];
+    }
+}
 
 /// The coherence loss of `velocities[i]` at `positions[i]`; adds `∂L/∂v_i` into `d_v[i]`.
 ///
@@ -37,65 +116,52 @@ pub fn coherence_loss(
     if m < 2 {
         return 0.0;
     }
-    let k = k.min(m - 1);
-    let dist = |a: &[f64; 3], b: &[f64; 3]| {
-        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-    };
-    // Brute-force kNN (excluding self); ties broken by index for determinism.
-    let mut nbrs: Vec<(usize, f64)> = Vec::with_capacity(m * k);
-    let mut cand: Vec<(f64, usize)> = Vec::with_capacity(m);
-    for i in 0..m {
-        cand.clear();
-        cand.extend(
-            (0..m)
-                .filter(|&j| j != i)
-                .map(|j| (dist(&positions[i], &positions[j]), j)),
-        );
-        cand.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut best: Vec<(f64, usize)> = cand[..k].to_vec();
-        best.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        nbrs.extend(best.into_iter().map(|(d, j)| (j, d)));
-    }
-    #[allow(clippy::cast_precision_loss, reason = "counts are small")]
-    let mean_d = nbrs.iter().map(|&(_, d)| d).sum::<f64>() / nbrs.len() as f64;
-    let sigma = (0.5 * mean_d).max(1e-12);
-    let mut sum_w = 0.0;
+    let (pairs, denom) = neighbour_pairs(positions, k);
     let mut sum_wc = 0.0;
-    let mut terms: Vec<(usize, usize, f64, [f64; 3])> = Vec::with_capacity(nbrs.len());
-    for i in 0..m {
-        for &(j, d) in &nbrs[i * k..(i + 1) * k] {
-            let w = (-d / sigma).exp();
-            let inv = 1.0 / d.clamp(1e-6, 10.0);
-            let r: [f64; 3] = core::array::from_fn(|a| (positions[i][a] - positions[j][a]) * inv);
-            let dv: [f64; 3] = core::array::from_fn(|a| velocities[i][a] - velocities[j][a]);
-            // With a = Δv·r̂ and s = |r̂|² (1 unless d was clamped):
-            // c = |Δv − a r̂|² + 0.2 |a r̂|² = |Δv|² + a²((1 + 0.2) s − 2),
-            // ∂c/∂Δv = 2Δv + 2a((1 + 0.2) s − 2) r̂.
-            let a = dv[0] * r[0] + dv[1] * r[1] + dv[2] * r[2];
-            let s2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-            let f = (1.0 + PARALLEL_WEIGHT) * s2 - 2.0;
-            let c = dv.iter().map(|x| x * x).sum::<f64>() + a * a * f;
-            sum_w += w;
-            sum_wc += w * c;
-            terms.push((
-                i,
-                j,
-                w,
-                core::array::from_fn(|q| 2.0 * dv[q] + 2.0 * a * f * r[q]),
-            ));
-        }
-    }
-    let denom = sum_w + 1e-8;
-    for (i, j, w, g) in terms {
-        for q in 0..3 {
-            let gi = w / denom * g[q];
-            d_v[i][q] += gi;
-            d_v[j][q] -= gi;
-        }
+    for &(i, j, w, r) in &pairs {
+        let (c, g) = anisotropic_cost(&diff(velocities, i, j), &r);
+        sum_wc += w * c;
+        scatter_pair(d_v, i, j, w / denom, &g);
     }
     sum_wc / denom
 }
 
+/// The twist coherence of `(a_i, ω_i)` at `positions[i]` with lever arm `lever`; adds
+/// `∂L/∂a_i` into `d_a[i]` and `∂L/∂ω_i` into `d_omega[i]`.
+///
+/// # Panics
+/// If the slices differ in length.
+#[must_use]
+pub fn twist_coherence_loss(
+    positions: &[[f64; 3]],
+    a: &[[f64; 3]],
+    omega: &[[f64; 3]],
+    lever: f64,
+    k: usize,
+    d_a: &mut [[f64; 3]],
+    d_omega: &mut [[f64; 3]],
+) -> f64 {
+    let m = positions.len();
+    assert!(
+        a.len() == m && omega.len() == m && d_a.len() == m && d_omega.len() == m,
+        "twist coherence: length mismatch"
+    );
+    if m < 2 {
+        return 0.0;
+    }
+    let (pairs, denom) = neighbour_pairs(positions, k);
+    let l2 = lever * lever;
+    let mut sum_wc = 0.0;
+    for &(i, j, w, r) in &pairs {
+        let (ca, ga) = anisotropic_cost(&diff(a, i, j), &r);
+        let dw = diff(omega, i, j);
+        let cw = l2 * dw.iter().map(|x| x * x).sum::<f64>();
+        sum_wc += w * (ca + cw);
+        scatter_pair(d_a, i, j, w / denom, &ga);
+        scatter_pair(d_omega, i, j, 2.0 * l2 * w / denom, &dw);
+    }
+    sum_wc / denom
+}
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -149,6 +215,94 @@ mod tests {
         assert!(
             (tear / stretch - 5.0).abs() < 1e-9,
             "perpendicular costs 5x parallel: {tear} vs {stretch}"
+        );
+    }
+
+    #[test]
+    fn twist_gradient_matches_central_differences() {
+        let mut rng = SplitMix64::new(2);
+        let m = 30;
+        let mut r3 = |s: f64| [s * rng.normal(), s * rng.normal(), s * rng.normal()];
+        let pos: Vec<[f64; 3]> = (0..m).map(|_| r3(0.7)).collect();
+        let a: Vec<[f64; 3]> = (0..m).map(|_| r3(1.0)).collect();
+        let om: Vec<[f64; 3]> = (0..m).map(|_| r3(1.0)).collect();
+        let lever = 0.8;
+        let (mut da, mut dw) = (vec![[0.0; 3]; m], vec![[0.0; 3]; m]);
+        let l = twist_coherence_loss(&pos, &a, &om, lever, COHERENCE_K, &mut da, &mut dw);
+        assert!(l > 0.0, "random twists are incoherent");
+        let mut x: Vec<f64> = a.iter().chain(&om).flatten().copied().collect();
+        let mut num = vec![0.0; x.len()];
+        central_gradient(
+            |v: &[f64]| {
+                let t: Vec<[f64; 3]> = v.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
+                let mut s1 = vec![[0.0; 3]; m];
+                let mut s2 = vec![[0.0; 3]; m];
+                twist_coherence_loss(&pos, &t[..m], &t[m..], lever, COHERENCE_K, &mut s1, &mut s2)
+            },
+            &mut x,
+            &mut num,
+        );
+        let g: Vec<f64> = da.iter().chain(&dw).flatten().copied().collect();
+        GradCheck::new(1e-9, 1e-7)
+            .check(&g, &num)
+            .assert_passed("twist coherence gradient");
+    }
+
+    #[test]
+    fn a_rigid_rotation_costs_nothing_as_a_twist_but_does_as_a_velocity() {
+        let mut rng = SplitMix64::new(3);
+        let m = 40;
+        let pos: Vec<[f64; 3]> = (0..m)
+            .map(|_| [rng.normal(), rng.normal(), rng.normal()])
+            .collect();
+        let (a0, w0) = ([0.3, -0.2, 0.1], [1.0, 2.0, -0.5]);
+        let cross = |w: [f64; 3], r: [f64; 3]| {
+            [
+                w[1] * r[2] - w[2] * r[1],
+                w[2] * r[0] - w[0] * r[2],
+                w[0] * r[1] - w[1] * r[0],
+            ]
+        };
+        let vel: Vec<[f64; 3]> = pos
+            .iter()
+            .map(|&x| {
+                let c = cross(w0, x);
+                [a0[0] + c[0], a0[1] + c[1], a0[2] + c[2]]
+            })
+            .collect();
+        let mut d = vec![[0.0; 3]; m];
+        let as_velocity = coherence_loss(&pos, &vel, COHERENCE_K, &mut d);
+        let (mut da, mut dw) = (vec![[0.0; 3]; m], vec![[0.0; 3]; m]);
+        let as_twist = twist_coherence_loss(
+            &pos,
+            &vec![a0; m],
+            &vec![w0; m],
+            1.0,
+            COHERENCE_K,
+            &mut da,
+            &mut dw,
+        );
+        assert!(
+            as_velocity > 0.1,
+            "velocity form penalises turning: {as_velocity}"
+        );
+        assert!(as_twist.abs() < 1e-15, "twist form: {as_twist}");
+        assert!(da.iter().chain(&dw).flatten().all(|g| g.abs() < 1e-15));
+        let mut bent = vec![w0; m];
+        bent[0][2] += 1.0;
+        let (mut da, mut dw) = (vec![[0.0; 3]; m], vec![[0.0; 3]; m]);
+        let l = twist_coherence_loss(
+            &pos,
+            &vec![a0; m],
+            &bent,
+            1.0,
+            COHERENCE_K,
+            &mut da,
+            &mut dw,
+        );
+        assert!(
+            l > 0.0,
+            "a Gaussian turning apart from its neighbours costs"
         );
     }
 }

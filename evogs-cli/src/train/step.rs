@@ -4,7 +4,8 @@
 //! ```text
 //! L = (1 − λ)·L1(I, Î) + λ·(1 − SSIM(I, Î))            photometric, I = render(Gaussians(t))
 //!   + w_tv·TV + w_t·TimeSmooth + w_l1·L1Time            HexPlane regularisers (dynamics on)
-//!   + λ_coh·L_coh(v at sampled Gaussians, t)            velocity coherence (velocity motion)
+//!   + λ_coh·L_coh(v at sampled Gaussians, t)            velocity coherence (velocity motion;
+//!                                                        of the twist (a, ω) with the twist)
 //!   + λ_anchor·L_anchor(segment k)                      anchor loss (trainable waypoints)
 //! ```
 //!
@@ -15,8 +16,8 @@
 use crate::field::Gemm;
 use crate::field::regularize::{PlaneRegWeights, plane_regularizers};
 use crate::model::{Model, ModelGrad, Motion, Waypoints};
-use crate::train::coherence::{COHERENCE_K, coherence_loss};
-use evogs_math::{Par, Real};
+use crate::train::coherence::{COHERENCE_K, coherence_loss, twist_coherence_loss};
+use evogs_math::{Par, Real, Vec3};
 use evogs_ode::Stepper;
 use evogs_splat::loss::photometric_loss_and_grad;
 use evogs_splat::ssim::SsimWorkspace;
@@ -259,8 +260,8 @@ pub fn loss_and_grad<T: Gemm>(
     (losses, stats)
 }
 
-/// The velocity-coherence term at the sampled (detached) positions, with its gradient into
-/// the field parameters.
+/// The velocity-coherence term at the sampled (detached) positions (its twist form when the
+/// field's velocity is a twist), with its gradient into the field parameters.
 fn coherence_term<T: Gemm>(
     model: &mut Model<T>,
     t: f64,
@@ -277,18 +278,56 @@ fn coherence_term<T: Gemm>(
     let mut out = vec![T::ZERO; 9 * m];
     let tt = T::from_f64(t);
     model.field.eval_batch(tt, &pos, 3, m, &mut out);
-    let v64: Vec<[f64; 3]> = out
-        .chunks(9)
-        .map(|c| [c[0].to_f64(), c[1].to_f64(), c[2].to_f64()])
-        .collect();
-    let mut dv = vec![[0.0; 3]; m];
-    let l = coherence_loss(&s.coherence_points, &v64, COHERENCE_K, &mut dv);
+    let head = |c: &[T], o: usize| [c[o].to_f64(), c[o + 1].to_f64(), c[o + 2].to_f64()];
+    let v64: Vec<[f64; 3]> = out.chunks(9).map(|c| head(c, 0)).collect();
     let mut d_out = vec![T::ZERO; 9 * m];
-    for (i, d) in dv.iter().enumerate() {
-        for a in 0..3 {
-            d_out[9 * i + a] = T::from_f64(s.lambda_coherence * d[a]);
+    let l = if let Some(c) = model.field.twist_centre() {
+        // v = a + ω × r with r = x − c: the loss compares the twists (a, ω); its
+        // cotangents (d_a, d_ω) reach the outputs (v, ω) as (d_a, d_ω − r × d_a).
+        let c = c.cast::<f64>();
+        let arm: Vec<Vec3<f64>> = s
+            .coherence_points
+            .iter()
+            .map(|x| Vec3::from_array(*x) - c)
+            .collect();
+        let omega: Vec<[f64; 3]> = out.chunks(9).map(|c| head(c, 3)).collect();
+        let a: Vec<[f64; 3]> = v64
+            .iter()
+            .zip(&omega)
+            .zip(&arm)
+            .map(|((v, w), r)| (Vec3::from_array(*v) - Vec3::from_array(*w).cross(*r)).to_array())
+            .collect();
+        #[allow(clippy::cast_precision_loss, reason = "sample counts are small")]
+        let lever = (arm.iter().map(|r| r.dot(*r)).sum::<f64>() / m as f64).sqrt();
+        let (mut da, mut dw) = (vec![[0.0; 3]; m], vec![[0.0; 3]; m]);
+        let l = twist_coherence_loss(
+            &s.coherence_points,
+            &a,
+            &omega,
+            lever,
+            COHERENCE_K,
+            &mut da,
+            &mut dw,
+        );
+        for (i, r) in arm.iter().enumerate() {
+            let d_a = Vec3::from_array(da[i]);
+            let d_w = Vec3::from_array(dw[i]) - r.cross(d_a);
+            for q in 0..3 {
+                d_out[9 * i + q] = T::from_f64(s.lambda_coherence * d_a.to_array()[q]);
+                d_out[9 * i + 3 + q] = T::from_f64(s.lambda_coherence * d_w.to_array()[q]);
+            }
         }
-    }
+        l
+    } else {
+        let mut dv = vec![[0.0; 3]; m];
+        let l = coherence_loss(&s.coherence_points, &v64, COHERENCE_K, &mut dv);
+        for (i, d) in dv.iter().enumerate() {
+            for a in 0..3 {
+                d_out[9 * i + a] = T::from_f64(s.lambda_coherence * d[a]);
+            }
+        }
+        l
+    };
     let mut d_pos = vec![T::ZERO; 3 * m];
     model
         .field

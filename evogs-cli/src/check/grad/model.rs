@@ -7,8 +7,8 @@
 //! analytic gradient is identically zero fails (the check could not see anything).
 
 use super::scene::{
-    GradScene, ParamGroup, central_difference, grad_scene, param_groups, sample_entries,
-    step_loss_and_grad,
+    GradScene, ParamGroup, central_difference, grad_scene, grad_scene_twist, param_groups,
+    sample_entries, step_loss_and_grad,
 };
 use super::{GradRow, check_fn, uniform};
 use crate::model::{Model, ModelGrad, Motion};
@@ -166,11 +166,27 @@ fn groups(
 /// group (all of a smaller group). Returns the step's loss terms and one row per group.
 #[must_use]
 pub fn training_step_rows(motion: Motion, seed: u64, samples: usize) -> (StepLosses, Vec<GradRow>) {
+    step_rows(grad_scene(motion, seed), name(motion), seed, samples)
+}
+
+/// [`training_step_rows`] in velocity motion with the twist velocity
+/// ([`grad_scene_twist`]): the twist's position and head terms and the twist coherence.
+#[must_use]
+pub fn twist_training_step_rows(seed: u64, samples: usize) -> (StepLosses, Vec<GradRow>) {
+    step_rows(grad_scene_twist(seed), "twist velocity", seed, samples)
+}
+
+fn step_rows(
+    scene: GradScene,
+    label: &str,
+    seed: u64,
+    samples: usize,
+) -> (StepLosses, Vec<GradRow>) {
     let GradScene {
         mut model,
         view,
         settings,
-    } = grad_scene(motion, seed);
+    } = scene;
     let (losses, grad) = step_loss_and_grad(&mut model, &view, &settings);
     let mut rng = SplitMix64::new(seed + 100);
     let rows = groups(&mut model, &grad, samples, &mut rng, &mut |m| {
@@ -180,7 +196,7 @@ pub fn training_step_rows(motion: Motion, seed: u64, samples: usize) -> (StepLos
     .map(|(g, rep, nonzero)| {
         with_nonzero(
             GradRow::from_reports(
-                &format!("cli: training step ({}): {}", name(motion), g.name),
+                &format!("cli: training step ({label}): {}", g.name),
                 &[rep],
                 &[],
             ),
@@ -200,5 +216,6 @@ pub(super) fn rows(samples: usize) -> Vec<GradRow> {
     ];
     rows.extend(training_step_rows(Motion::Velocity, 3, samples).1);
     rows.extend(training_step_rows(Motion::Deformation, 5, samples).1);
+    rows.extend(twist_training_step_rows(7, samples).1);
     rows
 }
