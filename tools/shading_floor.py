@@ -12,8 +12,8 @@ reports the cube's mean image coverage (the convex hull of its projected corners
 
     python3 tools/shading_floor.py [--data DIR] [--meta tools/data/toys-meta.json]
 
-DIR: a toys scene in D-NeRF format (default: data/toys-mini, shipped with evogs; the full
-400x400 scene is ../shared/data/toys).
+DIR: a toys scene in D-NeRF format (default: data/toys-mini, shipped with evogs; the README's
+figures are from the full 400x400, 150-view scene, passed with --data).
 """
 import argparse
 import json

@@ -15,16 +15,18 @@
 use evogs_cli::config::TrainConfig;
 use evogs_cli::field::{NeuralField, TimeMapping};
 use evogs_cli::train::adam::{Adam, AdamState};
+use evogs_math::Vec3;
 use evogs_math::rng::SplitMix64;
+use evogs_math::so3::exp_quat;
 use std::f64::consts::TAU;
 
 /// The cube of `toys/meta.json`: centre, rotation axis (unit), half-size.
-const CENTRE: [f64; 3] = [0.45, 0.4, 0.05];
-const AXIS: [f64; 3] = [
+const CENTRE: Vec3<f64> = Vec3::new(0.45, 0.4, 0.05);
+const AXIS: Vec3<f64> = Vec3::new(
     0.268_328_157_299_974_7,
     -0.357_770_876_399_966_35,
     0.894_427_190_999_915_9,
-];
+);
 const HALF: f64 = 0.25;
 /// Bounds of `data/toys-mini/points3d.ply` (rounded) and the `aabb_margin` of the presets.
 const LO: [f64; 3] = [-1.3, -1.3, -1.0];
@@ -36,22 +38,6 @@ const EXTENT: f64 = 4.8;
 /// Points per iteration and iterations.
 const POINTS: usize = 1000;
 const ITERATIONS: usize = 3000;
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-/// Rodrigues: the rotation of `u` by `angle` about the unit `axis`.
-fn rotate(axis: [f64; 3], angle: f64, u: [f64; 3]) -> [f64; 3] {
-    let (s, c) = angle.sin_cos();
-    let k = cross(axis, u);
-    let kk = cross(axis, k);
-    core::array::from_fn(|a| u[a] + s * k[a] + (1.0 - c) * kk[a])
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -73,10 +59,10 @@ fn main() {
     let (gr, mr) = (field.grid_range(), field.mlp_range());
     let (mut grid, mut mlp) = (AdamState::new(gr.len()), AdamState::new(mr.len()));
     let adam = Adam::default();
-    let omega = AXIS.map(|v| v * TAU);
+    let omega = AXIS * TAU;
     let mut rng = SplitMix64::new(1);
     let mut pos = vec![0f32; 3 * POINTS];
-    let mut target = vec![[0f64; 3]; POINTS];
+    let mut target = vec![Vec3::zero(); POINTS];
     let mut out = vec![0f32; 9 * POINTS];
     let mut d_out = vec![0f32; 9 * POINTS];
     let mut d_pos = vec![0f32; 3 * POINTS];
@@ -85,14 +71,15 @@ fn main() {
     let inv_n = 1.0 / POINTS as f64;
     for it in 1..=ITERATIONS {
         let t = rng.uniform(0.0, 0.25);
+        let turn = exp_quat(omega * t);
         for (i, tg) in target.iter_mut().enumerate() {
-            let u: [f64; 3] = core::array::from_fn(|_| rng.uniform(-HALF, HALF));
-            let r = rotate(AXIS, TAU * t, u);
-            *tg = cross(omega, r);
-            for a in 0..3 {
+            let u = Vec3::from_array(core::array::from_fn(|_| rng.uniform(-HALF, HALF)));
+            let r = turn.rotate(u);
+            *tg = omega.cross(r);
+            for (a, p) in (r + CENTRE).to_array().into_iter().enumerate() {
                 #[allow(clippy::cast_possible_truncation, reason = "the field runs in f32")]
                 {
-                    pos[3 * i + a] = (CENTRE[a] + r[a]) as f32;
+                    pos[3 * i + a] = p as f32;
                 }
             }
         }
@@ -102,10 +89,10 @@ fn main() {
         let (mut err, mut norm) = (0.0, 0.0);
         d_out.fill(0.0);
         for (i, tg) in target.iter().enumerate() {
-            for a in 0..3 {
-                let e = f64::from(out[9 * i + a]) - tg[a];
+            for (a, &ta) in tg.to_array().iter().enumerate() {
+                let e = f64::from(out[9 * i + a]) - ta;
                 err += e * e;
-                norm += tg[a] * tg[a];
+                norm += ta * ta;
                 #[allow(clippy::cast_possible_truncation, reason = "the field runs in f32")]
                 {
                     d_out[9 * i + a] = (2.0 * e * inv_n) as f32;

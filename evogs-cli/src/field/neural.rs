@@ -285,8 +285,11 @@ impl<T: Gemm> NeuralField<T> {
     }
 
     /// The head outputs `[a, ω, ṡ]` (scaled) at `n` positions: [`eval_batch`](Self::eval_batch)
-    /// without the twist's `ω × (x − c)`.
-    fn eval_heads(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
+    /// without the twist's `ω × (x − c)` (the same as `eval_batch` without the twist).
+    ///
+    /// # Panics
+    /// If the buffers are too short for `n`.
+    pub fn eval_heads(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
         assert!(
             n == 0 || (positions.len() >= (n - 1) * stride + 3 && out.len() >= n * N_OUT),
             "batch buffers too short"
@@ -362,6 +365,62 @@ impl<T: Gemm> NeuralField<T> {
         d_stride: usize,
         d_params: &mut [T],
     ) {
+        let twist = self.twist;
+        self.vjp(
+            t,
+            positions,
+            stride,
+            n,
+            d_out,
+            d_positions,
+            d_stride,
+            d_params,
+            twist,
+        );
+    }
+
+    /// VJP of [`eval_heads`](Self::eval_heads): [`vjp_batch`](Self::vjp_batch) with `d_out`
+    /// the cotangent of the heads `[a, ω, ṡ]` (the same as `vjp_batch` without the twist).
+    ///
+    /// # Panics
+    /// If the buffers are too short.
+    pub fn vjp_heads(
+        &mut self,
+        t: T,
+        positions: &[T],
+        stride: usize,
+        n: usize,
+        d_out: &[T],
+        d_positions: &mut [T],
+        d_stride: usize,
+        d_params: &mut [T],
+    ) {
+        self.vjp(
+            t,
+            positions,
+            stride,
+            n,
+            d_out,
+            d_positions,
+            d_stride,
+            d_params,
+            false,
+        );
+    }
+
+    /// The VJP of the heads, plus the twist's `ω × (x − c)` term when `twist`.
+    fn vjp(
+        &mut self,
+        t: T,
+        positions: &[T],
+        stride: usize,
+        n: usize,
+        d_out: &[T],
+        d_positions: &mut [T],
+        d_stride: usize,
+        d_params: &mut [T],
+        twist: bool,
+    ) {
         assert!(
             d_out.len() >= n * N_OUT && d_params.len() == self.params.len(),
             "vjp buffers have the wrong size"
@@ -384,6 +443,7 @@ impl<T: Gemm> NeuralField<T> {
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
         let twist = self
             .twist_centre()
+            .filter(|_| twist)
             .map(|c| (c, params[hex.n_params() + mlp.scales_offset() + 1]));
         let scratches = &mut self.evals[slot].chunks[..n_chunks];
         let run = |(ci, ((partial, (lks, (dss, dp))), scratch)): VjpItem<'_, T>| {

@@ -162,9 +162,11 @@ pub fn twist_coherence_loss(
     }
     sum_wc / denom
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use evogs_math::Vec3;
     use evogs_math::diff::{GradCheck, central_gradient};
     use evogs_math::rng::SplitMix64;
 
@@ -256,18 +258,10 @@ mod tests {
             .map(|_| [rng.normal(), rng.normal(), rng.normal()])
             .collect();
         let (a0, w0) = ([0.3, -0.2, 0.1], [1.0, 2.0, -0.5]);
-        let cross = |w: [f64; 3], r: [f64; 3]| {
-            [
-                w[1] * r[2] - w[2] * r[1],
-                w[2] * r[0] - w[0] * r[2],
-                w[0] * r[1] - w[1] * r[0],
-            ]
-        };
         let vel: Vec<[f64; 3]> = pos
             .iter()
             .map(|&x| {
-                let c = cross(w0, x);
-                [a0[0] + c[0], a0[1] + c[1], a0[2] + c[2]]
+                (Vec3::from_array(a0) + Vec3::from_array(w0).cross(Vec3::from_array(x))).to_array()
             })
             .collect();
         let mut d = vec![[0.0; 3]; m];

@@ -277,61 +277,60 @@ fn coherence_term<T: Gemm>(
         .collect();
     let mut out = vec![T::ZERO; 9 * m];
     let tt = T::from_f64(t);
-    model.field.eval_batch(tt, &pos, 3, m, &mut out);
-    let head = |c: &[T], o: usize| [c[o].to_f64(), c[o + 1].to_f64(), c[o + 2].to_f64()];
-    let v64: Vec<[f64; 3]> = out.chunks(9).map(|c| head(c, 0)).collect();
+    // With the twist velocity v = a + ω × (x − c) the loss compares the heads (a, ω), so it
+    // reads and differentiates them directly (no twist term); otherwise the velocity v.
+    let twist = model.field.twist_centre().map(|c| c.cast::<f64>());
+    if twist.is_some() {
+        model.field.eval_heads(tt, &pos, 3, m, &mut out);
+    } else {
+        model.field.eval_batch(tt, &pos, 3, m, &mut out);
+    }
+    let head = |o: usize| -> Vec<[f64; 3]> {
+        out.chunks(9)
+            .map(|c| [c[o].to_f64(), c[o + 1].to_f64(), c[o + 2].to_f64()])
+            .collect()
+    };
     let mut d_out = vec![T::ZERO; 9 * m];
-    let l = if let Some(c) = model.field.twist_centre() {
-        // v = a + ω × r with r = x − c: the loss compares the twists (a, ω); its
-        // cotangents (d_a, d_ω) reach the outputs (v, ω) as (d_a, d_ω − r × d_a).
-        let c = c.cast::<f64>();
-        let arm: Vec<Vec3<f64>> = s
+    let mut put = |o: usize, d: &[[f64; 3]]| {
+        for (i, d) in d.iter().enumerate() {
+            for a in 0..3 {
+                d_out[9 * i + o + a] = T::from_f64(s.lambda_coherence * d[a]);
+            }
+        }
+    };
+    let mut d_v = vec![[0.0; 3]; m];
+    let l = if let Some(c) = twist {
+        #[allow(clippy::cast_precision_loss, reason = "sample counts are small")]
+        let lever = (s
             .coherence_points
             .iter()
-            .map(|x| Vec3::from_array(*x) - c)
-            .collect();
-        let omega: Vec<[f64; 3]> = out.chunks(9).map(|c| head(c, 3)).collect();
-        let a: Vec<[f64; 3]> = v64
-            .iter()
-            .zip(&omega)
-            .zip(&arm)
-            .map(|((v, w), r)| (Vec3::from_array(*v) - Vec3::from_array(*w).cross(*r)).to_array())
-            .collect();
-        #[allow(clippy::cast_precision_loss, reason = "sample counts are small")]
-        let lever = (arm.iter().map(|r| r.dot(*r)).sum::<f64>() / m as f64).sqrt();
-        let (mut da, mut dw) = (vec![[0.0; 3]; m], vec![[0.0; 3]; m]);
+            .map(|x| (Vec3::from_array(*x) - c).norm_squared())
+            .sum::<f64>()
+            / m as f64)
+            .sqrt();
+        let mut d_omega = vec![[0.0; 3]; m];
         let l = twist_coherence_loss(
             &s.coherence_points,
-            &a,
-            &omega,
+            &head(0),
+            &head(3),
             lever,
             COHERENCE_K,
-            &mut da,
-            &mut dw,
+            &mut d_v,
+            &mut d_omega,
         );
-        for (i, r) in arm.iter().enumerate() {
-            let d_a = Vec3::from_array(da[i]);
-            let d_w = Vec3::from_array(dw[i]) - r.cross(d_a);
-            for q in 0..3 {
-                d_out[9 * i + q] = T::from_f64(s.lambda_coherence * d_a.to_array()[q]);
-                d_out[9 * i + 3 + q] = T::from_f64(s.lambda_coherence * d_w.to_array()[q]);
-            }
-        }
+        put(3, &d_omega);
         l
     } else {
-        let mut dv = vec![[0.0; 3]; m];
-        let l = coherence_loss(&s.coherence_points, &v64, COHERENCE_K, &mut dv);
-        for (i, d) in dv.iter().enumerate() {
-            for a in 0..3 {
-                d_out[9 * i + a] = T::from_f64(s.lambda_coherence * d[a]);
-            }
-        }
-        l
+        coherence_loss(&s.coherence_points, &head(0), COHERENCE_K, &mut d_v)
     };
+    put(0, &d_v);
     let mut d_pos = vec![T::ZERO; 3 * m];
-    model
-        .field
-        .vjp_batch(tt, &pos, 3, m, &d_out, &mut d_pos, 3, &mut grad.field);
+    let f = &mut model.field;
+    if twist.is_some() {
+        f.vjp_heads(tt, &pos, 3, m, &d_out, &mut d_pos, 3, &mut grad.field);
+    } else {
+        f.vjp_batch(tt, &pos, 3, m, &d_out, &mut d_pos, 3, &mut grad.field);
+    }
     s.lambda_coherence * l
 }
 
