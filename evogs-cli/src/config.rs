@@ -222,6 +222,10 @@ pub struct ScheduleConfig {
     /// iteration supervises a view from the newest twentieth of the time range inside the
     /// window (the motion not yet fitted) instead of the next view of the epoch.
     pub curriculum_focus: f64,
+    /// Views per iteration (the released code's batch size): the step's loss is the mean of
+    /// their photometric terms, the regularisers are counted once, and each iteration costs
+    /// about this many single-view iterations.
+    pub views_per_step: u64,
 }
 
 impl TrainConfig {
@@ -354,6 +358,7 @@ impl TrainConfig {
                 warmup_time_window: 1.0,
                 curriculum_iters: 0,
                 curriculum_focus: 0.0,
+                views_per_step: 1,
             },
         }
     }
@@ -459,6 +464,10 @@ impl TrainConfig {
             "schedule.curriculum_focus must be in [0, 1]",
         )?;
         chk(
+            (1..=64).contains(&self.schedule.views_per_step),
+            "schedule.views_per_step must be between 1 and 64",
+        )?;
+        chk(
             self.schedule.log_every > 0 && self.densify.interval > 0,
             "log_every and densify.interval must be positive",
         )?;
@@ -533,6 +542,12 @@ mod tests {
             long.validate().is_err(),
             "a curriculum longer than the dynamic stage is rejected"
         );
+        for bad in [0, 65] {
+            let c = c
+                .merge_toml(&format!("[schedule]\nviews_per_step = {bad}\n"))
+                .expect("parses");
+            assert!(c.validate().is_err(), "views_per_step = {bad} rejected");
+        }
     }
 
     #[test]

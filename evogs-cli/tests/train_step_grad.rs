@@ -2,11 +2,16 @@
 //! plane regularisers, velocity coherence (its twist form with the twist velocity) and the
 //! anchor loss) against central differences of
 //! the same step's loss, in f64, for every parameter group (sampled entries), in velocity and
-//! deformation motion. The scene and the per-group check live in
+//! deformation motion, and on a batch of two views. The scene and the per-group check live in
 //! `evogs_cli::check::grad` (shared with `evogs check-grad` and the cross-crate tests).
 
 use evogs_cli::check::grad::GradRow;
-use evogs_cli::check::grad::model::{SAMPLES, training_step_rows, twist_training_step_rows};
+use evogs_cli::check::grad::model::{
+    SAMPLES, batch_training_step_rows, training_step_rows, twist_training_step_rows,
+};
+use evogs_cli::check::grad::scene::{
+    batch_step_loss_and_grad, grad_scene, param_groups, second_view,
+};
 use evogs_cli::model::Motion;
 use evogs_cli::train::step::StepLosses;
 
@@ -49,4 +54,57 @@ fn deformation_step_gradient_matches_central_differences() {
 #[test]
 fn twist_velocity_step_gradient_matches_central_differences() {
     assert_rows(Motion::Velocity, twist_training_step_rows(3, SAMPLES), 9);
+}
+
+#[test]
+fn two_view_batch_gradient_matches_central_differences() {
+    assert_rows(Motion::Velocity, batch_training_step_rows(11, SAMPLES), 9);
+}
+
+/// A batch's loss and gradient are the mean of its views' photometric terms plus the
+/// regularisers once (at the first view's time), not the mean of two whole steps.
+#[test]
+fn a_batch_averages_the_photometric_terms_and_counts_the_regularisers_once() {
+    let mut scene = grad_scene(Motion::Velocity, 11);
+    let second = second_view(11);
+    let s = scene.settings.clone();
+    let mut photo_only = s.clone();
+    photo_only.plane_reg.plane_tv = 0.0;
+    photo_only.plane_reg.time_smoothness = 0.0;
+    photo_only.plane_reg.l1_time = 0.0;
+    photo_only.lambda_coherence = 0.0;
+    photo_only.anchor_segment = None;
+    let m = &mut scene.model;
+    let (l_batch, g_batch) = batch_step_loss_and_grad(m, &[&scene.view, &second], &s);
+    let (l_one, g_one) = batch_step_loss_and_grad(m, &[&scene.view], &s);
+    let (l_p1, g_p1) = batch_step_loss_and_grad(m, &[&scene.view], &photo_only);
+    let (l_p2, g_p2) = batch_step_loss_and_grad(m, &[&second], &photo_only);
+    let regs = l_one.planes + l_one.coherence + l_one.anchor;
+    assert!(regs > 0.0 && l_p1.planes == 0.0 && l_p1.anchor == 0.0);
+    assert!(
+        (l_batch.planes - l_one.planes).abs() <= 1e-15
+            && (l_batch.coherence - l_one.coherence).abs() <= 1e-15
+            && (l_batch.anchor - l_one.anchor).abs() <= 1e-15,
+        "regularisers once: {l_batch:?} vs {l_one:?}"
+    );
+    let want = 0.5 * (l_p1.total + l_p2.total) + regs;
+    assert!(
+        (l_batch.total - want).abs() <= 1e-12,
+        "{} vs {want}",
+        l_batch.total
+    );
+    assert!((l_batch.mse - 0.5 * (l_p1.mse + l_p2.mse)).abs() <= 1e-15);
+    for g in param_groups(m) {
+        for i in 0..g.len {
+            // g_batch = ½·(photo₁ + photo₂) + regs, where regs = g_one − photo₁.
+            let want = 0.5 * ((g.read)(&g_p1, i) + (g.read)(&g_p2, i))
+                + ((g.read)(&g_one, i) - (g.read)(&g_p1, i));
+            let got = (g.read)(&g_batch, i);
+            assert!(
+                (got - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                "{}[{i}]: {got} vs {want}",
+                g.name
+            );
+        }
+    }
 }

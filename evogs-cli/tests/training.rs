@@ -84,6 +84,27 @@ fn a_short_run_lowers_the_loss_clearly() {
 }
 
 #[test]
+fn a_batched_run_lowers_the_loss_and_densifies() {
+    let mut c = tiny_config();
+    c.schedule.views_per_step = 3;
+    c.schedule.iterations = 60;
+    c.schedule.curriculum_iters = 10;
+    let mut t = trainer(c);
+    let n0 = t.model.len();
+    let mut l1 = Vec::new();
+    while !t.finished() {
+        l1.push(t.step().expect("finite step").losses.l1);
+    }
+    let first: f64 = l1[..10].iter().sum::<f64>() / 10.0;
+    let last: f64 = l1[l1.len() - 10..].iter().sum::<f64>() / 10.0;
+    assert!(last < 0.75 * first, "L1 fell from {first:.4} to {last:.4}");
+    assert!(
+        t.model.dynamics_active && t.model.len() != n0,
+        "dynamics on, densified"
+    );
+}
+
+#[test]
 fn resume_continues_bit_for_bit() {
     let mut c = tiny_config();
     c.schedule.iterations = 56;

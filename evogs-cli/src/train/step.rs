@@ -149,12 +149,78 @@ pub fn render_options<T: Real>(
 }
 
 /// Loss and gradient of one step on one view; **adds** the gradient into `grad` (zero it
-/// first) and returns the loss terms and the densification statistics.
+/// first) and returns the loss terms and the densification statistics
+/// ([`batch_loss_and_grad`] of one view).
 pub fn loss_and_grad<T: Gemm>(
     model: &mut Model<T>,
     view: &ViewData<T>,
     opts: &RenderOptions<T>,
     s: &StepSettings,
+    ws: &mut StepWorkspace<T>,
+    grad: &mut ModelGrad<T>,
+) -> (StepLosses, ScreenStats<T>) {
+    batch_loss_and_grad(model, &[view], opts, s, ws, grad)
+}
+
+/// Loss and gradient of one step on a batch of views (the released code's batch): the mean
+/// of their photometric terms ([`view_loss_and_grad`], weight `1/B` each) plus the
+/// regularisers once, at the first view's time ([`regularizers_and_grad`]). **Adds** the
+/// gradient into `grad`; the reported L1, SSIM and MSE are the views' means. The
+/// densification statistics follow the released code: the views' 2D-mean gradients are
+/// summed (their norm is taken later), a Gaussian counts as seen if any view sees it, and
+/// its screen radius is the largest over the views. One view gives bitwise the single-view
+/// step.
+///
+/// # Panics
+/// If `views` is empty.
+pub fn batch_loss_and_grad<T: Gemm>(
+    model: &mut Model<T>,
+    views: &[&ViewData<T>],
+    opts: &RenderOptions<T>,
+    s: &StepSettings,
+    ws: &mut StepWorkspace<T>,
+    grad: &mut ModelGrad<T>,
+) -> (StepLosses, ScreenStats<T>) {
+    assert!(!views.is_empty(), "a step needs at least one view");
+    #[allow(clippy::cast_precision_loss, reason = "batch sizes are small")]
+    let weight = 1.0 / views.len() as f64;
+    let mut losses = StepLosses::default();
+    let mut batch_stats: Option<ScreenStats<T>> = None;
+    for view in views {
+        let (l, st) = view_loss_and_grad(model, view, opts, s.lambda_ssim, weight, ws, grad);
+        losses.total += l.total;
+        losses.l1 += weight * l.l1;
+        losses.ssim += weight * l.ssim;
+        losses.mse += weight * l.mse;
+        losses.timings.dynamics += l.timings.dynamics;
+        losses.timings.render += l.timings.render;
+        losses.timings.adjoint += l.timings.adjoint;
+        match &mut batch_stats {
+            None => batch_stats = Some(st),
+            Some(acc) => {
+                let seen = acc.grad2d.iter_mut().zip(&mut acc.radius);
+                for ((a, r), (g, q)) in seen.zip(st.grad2d.iter().zip(&st.radius)) {
+                    a[0] += g[0];
+                    a[1] += g[1];
+                    *r = (*r).max(*q);
+                }
+            }
+        }
+    }
+    regularizers_and_grad(model, views[0].time, s, ws, grad, &mut losses);
+    (losses, batch_stats.unwrap_or_default())
+}
+
+/// The photometric term of one view, `weight·((1 − λ)·L1 + λ·(1 − SSIM))` (`weight` = 1/B
+/// for the mean over a batch of B views), through the render and the dynamics: **adds** its
+/// gradient into `grad` and returns the unweighted L1, SSIM and MSE with the weighted total,
+/// and the view's densification statistics.
+pub fn view_loss_and_grad<T: Gemm>(
+    model: &mut Model<T>,
+    view: &ViewData<T>,
+    opts: &RenderOptions<T>,
+    lambda_ssim: f64,
+    weight: f64,
     ws: &mut StepWorkspace<T>,
     grad: &mut ModelGrad<T>,
 ) -> (StepLosses, ScreenStats<T>) {
@@ -183,8 +249,8 @@ pub fn loss_and_grad<T: Gemm>(
         &mut ws.ssim,
         &fwd.raster.rgb,
         &view.image,
-        T::from_f64(s.lambda_ssim),
-        T::ONE,
+        T::from_f64(lambda_ssim),
+        T::from_f64(weight),
         &mut d_image,
         opts.par,
     );
@@ -218,7 +284,33 @@ pub fn loss_and_grad<T: Gemm>(
         mse,
         ..StepLosses::default()
     };
-    losses.total = photo.total.to_f64();
+    losses.total = weight * photo.total.to_f64();
+    losses.timings = timings;
+    let stats = ScreenStats {
+        grad2d: g.raster.means2d.iter().map(|v| [v.x, v.y]).collect(),
+        radius: fwd.pre.radii.iter().map(|r| r[0].max(r[1])).collect(),
+        size: (w, h),
+    };
+    ws.splats_t = splats_t;
+    ws.d_image = Some(d_image);
+    ws.render = Some(fwd);
+    ws.render_grad = Some(g);
+    (losses, stats)
+}
+
+/// The regularisers of a step at time `t`: the HexPlane terms, the velocity coherence and
+/// the anchor loss, as `s` enables them and the model's motion uses them. **Adds** their
+/// gradients into `grad`, their values into `losses` (and its total) and their time into
+/// `losses.timings.extra`. Counted once per step, however many views it has.
+pub fn regularizers_and_grad<T: Gemm>(
+    model: &mut Model<T>,
+    t: f64,
+    s: &StepSettings,
+    ws: &mut StepWorkspace<T>,
+    grad: &mut ModelGrad<T>,
+    losses: &mut StepLosses,
+) {
+    let clock = std::time::Instant::now();
     let dynamic = model.dynamics_active && model.motion != Motion::Static;
     if dynamic {
         let hex = model.field.hexplane().clone();
@@ -236,7 +328,7 @@ pub fn loss_and_grad<T: Gemm>(
         && s.lambda_coherence > 0.0
         && s.coherence_points.len() > 1
     {
-        losses.coherence = coherence_term(model, view.time, s, grad);
+        losses.coherence = coherence_term(model, t, s, grad);
     }
     if let (true, Some(k)) = (
         dynamic && model.motion == Motion::Velocity && model.waypoints == Waypoints::Trainable,
@@ -245,19 +337,7 @@ pub fn loss_and_grad<T: Gemm>(
         losses.anchor = model.anchor_loss(k, s.lambda_anchor, &mut ws.stepper, grad);
     }
     losses.total += losses.planes + losses.coherence + losses.anchor;
-    timings.extra =
-        clock.elapsed().as_secs_f64() - timings.dynamics - timings.render - timings.adjoint;
-    losses.timings = timings;
-    let stats = ScreenStats {
-        grad2d: g.raster.means2d.iter().map(|v| [v.x, v.y]).collect(),
-        radius: fwd.pre.radii.iter().map(|r| r[0].max(r[1])).collect(),
-        size: (w, h),
-    };
-    ws.splats_t = splats_t;
-    ws.d_image = Some(d_image);
-    ws.render = Some(fwd);
-    ws.render_grad = Some(g);
-    (losses, stats)
+    losses.timings.extra += clock.elapsed().as_secs_f64();
 }
 
 /// The velocity-coherence term at the sampled (detached) positions (its twist form when the

@@ -10,8 +10,8 @@
 use super::densify::{DensifyReport, DensifyStats, densify_and_prune, reset_opacity};
 use super::optim::{LearningRates, Optimizer, StateGroups};
 use super::step::{
-    StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats, loss_and_grad,
-    render_options,
+    StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats,
+    batch_loss_and_grad, render_options,
 };
 use crate::config::TrainConfig;
 use crate::field::regularize::PlaneRegWeights;
@@ -393,8 +393,9 @@ impl Trainer {
             report.dynamics_started = true;
         }
         self.anchors_reached_by_window();
-        let vi = self.next_view();
-        report.view_time = self.views[vi].time;
+        let batch = self.cfg.schedule.views_per_step.max(1);
+        let picks: Vec<usize> = (0..batch).map(|_| self.next_view()).collect();
+        report.view_time = self.views[picks[0]].time;
         let settings = self.settings();
         let opts = render_options(self.cfg.data.background, self.active_sh_degree(), self.par);
         let mut grad = match self.grad.take() {
@@ -404,9 +405,10 @@ impl Trainer {
             }
             _ => self.model.zero_grad(),
         };
-        let (losses, stats) = loss_and_grad(
+        let batch_views: Vec<&ViewData<f32>> = picks.iter().map(|&i| &self.views[i]).collect();
+        let (losses, stats) = batch_loss_and_grad(
             &mut self.model,
-            &self.views[vi],
+            &batch_views,
             &opts,
             &settings,
             &mut self.ws,

@@ -7,12 +7,12 @@
 //! analytic gradient is identically zero fails (the check could not see anything).
 
 use super::scene::{
-    GradScene, ParamGroup, central_difference, grad_scene, grad_scene_twist, param_groups,
-    sample_entries, step_loss_and_grad,
+    GradScene, ParamGroup, batch_step_loss_and_grad, central_difference, grad_scene,
+    grad_scene_twist, param_groups, sample_entries, second_view,
 };
 use super::{GradRow, check_fn, uniform};
 use crate::model::{Model, ModelGrad, Motion};
-use crate::train::step::StepLosses;
+use crate::train::step::{StepLosses, ViewData};
 use core::cell::RefCell;
 use evogs_math::diff::{GradCheck, GradReport};
 use evogs_math::rng::SplitMix64;
@@ -166,18 +166,35 @@ fn groups(
 /// group (all of a smaller group). Returns the step's loss terms and one row per group.
 #[must_use]
 pub fn training_step_rows(motion: Motion, seed: u64, samples: usize) -> (StepLosses, Vec<GradRow>) {
-    step_rows(grad_scene(motion, seed), name(motion), seed, samples)
+    step_rows(grad_scene(motion, seed), None, name(motion), seed, samples)
 }
 
 /// [`training_step_rows`] in velocity motion with the twist velocity
 /// ([`grad_scene_twist`]): the twist's position and head terms and the twist coherence.
 #[must_use]
 pub fn twist_training_step_rows(seed: u64, samples: usize) -> (StepLosses, Vec<GradRow>) {
-    step_rows(grad_scene_twist(seed), "twist velocity", seed, samples)
+    step_rows(
+        grad_scene_twist(seed),
+        None,
+        "twist velocity",
+        seed,
+        samples,
+    )
+}
+
+/// [`training_step_rows`] in velocity motion on a batch of two views (the scene's view at
+/// t = 0.7 and [`second_view`] at t = 0.3, in another segment): the mean of their
+/// photometric terms plus the regularisers once.
+#[must_use]
+pub fn batch_training_step_rows(seed: u64, samples: usize) -> (StepLosses, Vec<GradRow>) {
+    let scene = grad_scene(Motion::Velocity, seed);
+    let second = second_view(seed);
+    step_rows(scene, Some(second), "velocity, two views", seed, samples)
 }
 
 fn step_rows(
     scene: GradScene,
+    second: Option<ViewData<f64>>,
     label: &str,
     seed: u64,
     samples: usize,
@@ -187,10 +204,11 @@ fn step_rows(
         view,
         settings,
     } = scene;
-    let (losses, grad) = step_loss_and_grad(&mut model, &view, &settings);
+    let views: Vec<&ViewData<f64>> = core::iter::once(&view).chain(second.as_ref()).collect();
+    let (losses, grad) = batch_step_loss_and_grad(&mut model, &views, &settings);
     let mut rng = SplitMix64::new(seed + 100);
     let rows = groups(&mut model, &grad, samples, &mut rng, &mut |m| {
-        step_loss_and_grad(m, &view, &settings).0.total
+        batch_step_loss_and_grad(m, &views, &settings).0.total
     })
     .into_iter()
     .map(|(g, rep, nonzero)| {
@@ -217,5 +235,6 @@ pub(super) fn rows(samples: usize) -> Vec<GradRow> {
     rows.extend(training_step_rows(Motion::Velocity, 3, samples).1);
     rows.extend(training_step_rows(Motion::Deformation, 5, samples).1);
     rows.extend(twist_training_step_rows(7, samples).1);
+    rows.extend(batch_training_step_rows(11, samples).1);
     rows
 }

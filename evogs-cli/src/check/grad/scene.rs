@@ -11,7 +11,7 @@ use crate::field::regularize::PlaneRegWeights;
 use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use crate::model::{Model, ModelGrad, Motion, Waypoints};
 use crate::train::step::{
-    StepLosses, StepSettings, StepWorkspace, ViewData, loss_and_grad, render_options,
+    StepLosses, StepSettings, StepWorkspace, ViewData, batch_loss_and_grad, render_options,
 };
 use evogs_math::activation::logit;
 use evogs_math::rng::SplitMix64;
@@ -185,17 +185,55 @@ pub fn step_loss_and_grad(
     view: &ViewData<f64>,
     settings: &StepSettings,
 ) -> (StepLosses, ModelGrad<f64>) {
+    batch_step_loss_and_grad(model, &[view], settings)
+}
+
+/// One training step's loss terms and gradient on a batch of views
+/// ([`batch_loss_and_grad`]; white background, SH degree 1).
+pub fn batch_step_loss_and_grad(
+    model: &mut Model<f64>,
+    views: &[&ViewData<f64>],
+    settings: &StepSettings,
+) -> (StepLosses, ModelGrad<f64>) {
     let mut ws = StepWorkspace::default();
     let mut g = model.zero_grad();
-    let (l, _) = loss_and_grad(
+    let (l, _) = batch_loss_and_grad(
         model,
-        view,
+        views,
         &render_options([1.0, 1.0, 1.0], 1, Par::Seq),
         settings,
         &mut ws,
         &mut g,
     );
     (l, g)
+}
+
+/// A second view for batch checks: another camera, time 0.3 (the first segment, where
+/// [`grad_scene`]'s view is in the second) and its own random target image.
+///
+/// # Panics
+/// Never for the built-in camera.
+#[must_use]
+pub fn second_view(seed: u64) -> ViewData<f64> {
+    let mut rng = SplitMix64::new(seed ^ 0xba7c);
+    let camera = PinholeCamera::look_at(
+        Vec3::new(-0.6, 0.3, 2.3),
+        Vec3::zero(),
+        Vec3::new(0.0, 1.0, 0.0),
+        0.9,
+        SIZE,
+        SIZE,
+    )
+    .expect("camera");
+    let mut image = Image::new(SIZE, SIZE);
+    for v in image.data_mut() {
+        *v = rng.uniform(0.0, 1.0);
+    }
+    ViewData {
+        camera,
+        time: 0.3,
+        image,
+    }
 }
 
 impl GradScene {
