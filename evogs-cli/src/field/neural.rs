@@ -18,9 +18,12 @@ use super::chunk::{ChunkScratch, decode_chunk_vjp, encode_chunk};
 use super::gemm::Gemm;
 use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
+use eval_cache::Evaluation;
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Par, Vec3};
 use evogs_ode::{Block, StateLayout, VectorField};
+
+mod eval_cache;
 
 /// Gaussians per work chunk.
 pub const CHUNK: usize = 256;
@@ -99,22 +102,6 @@ pub struct NeuralField<T> {
     clock: u64,
 }
 
-/// What a stored evaluation was computed for: exactly these positions, time and parameters.
-#[derive(Debug, PartialEq)]
-struct EvalKey<T> {
-    t: T,
-    generation: u64,
-    positions: Vec<T>,
-}
-
-/// The activations of one batched evaluation, chunk by chunk, and its key.
-#[derive(Debug)]
-struct Evaluation<T> {
-    chunks: Vec<ChunkScratch<T>>,
-    key: Option<EvalKey<T>>,
-    last_use: u64,
-}
-
 impl<T: Gemm> NeuralField<T> {
     /// A freshly initialised field over the box `[aabb_min, aabb_max]`.
     #[must_use]
@@ -188,68 +175,6 @@ impl<T: Gemm> NeuralField<T> {
         &mut self.params
     }
 
-    /// How many evaluations to keep for later VJPs (at least 1). A VJP at exactly the
-    /// positions, time and parameters of a stored evaluation reuses its activations instead
-    /// of recomputing the forward pass; the discrete adjoint of an s-stage method evaluates
-    /// its s stages and then takes their VJPs, so a capacity of s saves every recomputation.
-    /// Each stored evaluation costs about `N·(12·C + 8·W)` scalars.
-    pub fn set_eval_capacity(&mut self, capacity: usize) {
-        self.capacity = capacity.max(1);
-        self.evals.truncate(self.capacity);
-    }
-
-    /// The index of a stored evaluation for exactly this input, if any.
-    fn find_eval(&self, t: T, positions: &[T], stride: usize, n: usize) -> Option<usize> {
-        self.evals.iter().position(|e| {
-            e.key.as_ref().is_some_and(|k| {
-                k.generation == self.generation
-                    && k.t == t
-                    && k.positions.len() == 3 * n
-                    && (0..n).all(|i| {
-                        k.positions[3 * i..3 * i + 3] == positions[i * stride..i * stride + 3]
-                    })
-            })
-        })
-    }
-
-    /// A slot for a new evaluation of `n` Gaussians (the least recently used one), sized and
-    /// keyed for this input.
-    fn claim_eval(&mut self, t: T, positions: &[T], stride: usize, n: usize) -> usize {
-        let slot = if self.evals.len() < self.capacity {
-            self.evals.push(Evaluation {
-                chunks: Vec::new(),
-                key: None,
-                last_use: 0,
-            });
-            self.evals.len() - 1
-        } else {
-            (0..self.evals.len())
-                .min_by_key(|&i| self.evals[i].last_use)
-                .unwrap_or(0)
-        };
-        let n_chunks = n.div_ceil(CHUNK);
-        let e = &mut self.evals[slot];
-        while e.chunks.len() < n_chunks {
-            e.chunks.push(ChunkScratch::new(&self.hex, &self.mlp));
-        }
-        let mut key = e.key.take().unwrap_or(EvalKey {
-            t,
-            generation: 0,
-            positions: Vec::new(),
-        });
-        key.t = t;
-        key.generation = self.generation;
-        key.positions.clear();
-        key.positions
-            .extend((0..n).flat_map(|i| positions[i * stride..i * stride + 3].iter().copied()));
-        e.key = Some(key);
-        slot
-    }
-
-    fn touch(&mut self, slot: usize) {
-        self.clock += 1;
-        self.evals[slot].last_use = self.clock;
-    }
     /// The range of the plane parameters (optimiser group "grid").
     #[must_use]
     pub fn grid_range(&self) -> core::ops::Range<usize> {
