@@ -143,19 +143,7 @@ fn build(motion: Motion, seed: u64, twist: bool) -> GradScene {
             );
         }
     }
-    let camera = PinholeCamera::look_at(
-        Vec3::new(0.3, -0.2, 2.5),
-        Vec3::zero(),
-        Vec3::new(0.0, 1.0, 0.0),
-        0.9,
-        SIZE,
-        SIZE,
-    )
-    .expect("camera");
-    let mut image = Image::new(SIZE, SIZE);
-    for v in image.data_mut() {
-        *v = rng.uniform(0.0, 1.0);
-    }
+    let view = random_view(Vec3::new(0.3, -0.2, 2.5), 0.7, &mut rng);
     let settings = StepSettings {
         lambda_ssim: 0.2,
         plane_reg: PlaneRegWeights {
@@ -170,12 +158,24 @@ fn build(motion: Motion, seed: u64, twist: bool) -> GradScene {
     };
     GradScene {
         model,
-        view: ViewData {
-            camera,
-            time: 0.7,
-            image,
-        },
+        view,
         settings,
+    }
+}
+
+/// A `SIZE`×`SIZE` view from `eye` looking at the origin, at time `t`, with a random target.
+fn random_view(eye: Vec3<f64>, t: f64, rng: &mut SplitMix64) -> ViewData<f64> {
+    let camera =
+        PinholeCamera::look_at(eye, Vec3::zero(), Vec3::new(0.0, 1.0, 0.0), 0.9, SIZE, SIZE)
+            .expect("camera");
+    let mut image = Image::new(SIZE, SIZE);
+    for v in image.data_mut() {
+        *v = rng.uniform(0.0, 1.0);
+    }
+    ViewData {
+        camera,
+        time: t,
+        image,
     }
 }
 
@@ -215,25 +215,11 @@ pub fn batch_step_loss_and_grad(
 /// Never for the built-in camera.
 #[must_use]
 pub fn second_view(seed: u64) -> ViewData<f64> {
-    let mut rng = SplitMix64::new(seed ^ 0xba7c);
-    let camera = PinholeCamera::look_at(
+    random_view(
         Vec3::new(-0.6, 0.3, 2.3),
-        Vec3::zero(),
-        Vec3::new(0.0, 1.0, 0.0),
-        0.9,
-        SIZE,
-        SIZE,
+        0.3,
+        &mut SplitMix64::new(seed ^ 0xba7c),
     )
-    .expect("camera");
-    let mut image = Image::new(SIZE, SIZE);
-    for v in image.data_mut() {
-        *v = rng.uniform(0.0, 1.0);
-    }
-    ViewData {
-        camera,
-        time: 0.3,
-        image,
-    }
 }
 
 impl GradScene {
