@@ -19,15 +19,11 @@ use evogs_math::Vec3;
 use evogs_math::rng::SplitMix64;
 use evogs_math::so3::exp_quat;
 use std::f64::consts::TAU;
+use toys_cube::{AXIS, CENTRE, HALF};
 
-/// The cube of `toys/meta.json`: centre, rotation axis (unit), half-size.
-const CENTRE: Vec3<f64> = Vec3::new(0.45, 0.4, 0.05);
-const AXIS: Vec3<f64> = Vec3::new(
-    0.268_328_157_299_974_7,
-    -0.357_770_876_399_966_35,
-    0.894_427_190_999_915_9,
-);
-const HALF: f64 = 0.25;
+#[path = "common/toys_cube.rs"]
+mod toys_cube;
+
 /// Bounds of `data/toys-mini/points3d.ply` (rounded) and the `aabb_margin` of the presets.
 const LO: [f64; 3] = [-1.3, -1.3, -1.0];
 const HI: [f64; 3] = [1.3, 1.3, 1.0];

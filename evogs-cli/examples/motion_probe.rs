@@ -29,16 +29,12 @@ use evogs_splat::ssim::SsimWorkspace;
 use evogs_splat::{Splats, TiledRasterizer, render_tiled};
 use std::f64::consts::TAU;
 use std::path::PathBuf;
+use toys_cube::{AXIS, CENTRE, HALF};
 
-/// The cube of `toys/meta.json`: centre, rotation axis (unit), half-size, and its fixed
-/// initial tilt `Rot([1, 1, 0], 0.5)` (the pose at t = 0).
-const CENTRE: Vec3<f64> = Vec3::new(0.45, 0.4, 0.05);
-const AXIS: Vec3<f64> = Vec3::new(
-    0.268_328_157_299_974_7,
-    -0.357_770_876_399_966_35,
-    0.894_427_190_999_915_9,
-);
-const HALF: f64 = 0.25;
+#[path = "common/toys_cube.rs"]
+mod toys_cube;
+
+/// The cube's fixed initial tilt `Rot([1, 1, 0], TILT)` (its pose at t = 0).
 const TILT: f64 = 0.5;
 /// Fractions of the true angle tried.
 const FRACTIONS: [f64; 9] = [-0.2, 0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 1.2, 1.4];
