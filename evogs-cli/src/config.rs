@@ -240,9 +240,9 @@ impl TrainConfig {
     /// The `fast` preset: sized so the shipped 200×200 scene trains in about ten minutes
     /// on two CPU cores: a smaller field (2 × 16 channels at [32, 32, 32, 16], MLP 32 wide),
     /// five anchors with one RK4 step of a quarter of the time range between them, at most
-    /// 20 000 Gaussians, 1500 static + 2500 dynamic iterations, and a temporal curriculum
-    /// (static warm-up on the first 5 % of the time range, window grown over 1500 dynamic
-    /// iterations).
+    /// 20 000 Gaussians, 200 static + 2500 dynamic iterations, no opacity reset, and a
+    /// temporal curriculum (static warm-up on the first 5 % of the time range, window grown
+    /// over 1500 dynamic iterations).
     #[must_use]
     pub fn fast() -> Self {
         let mut c = Self::paper();
@@ -260,23 +260,29 @@ impl TrainConfig {
         };
         c.dynamics.anchors = 5;
         c.dynamics.step_fraction = 0.25;
-        c.schedule.warmup_iters = 1500;
-        c.schedule.iterations = 4000;
+        // A short warm-up: the warm-up sees only the few views of its time window, and the
+        // longer it fits them the more the canonical scene overfits those views; the moving
+        // objects' unseen sides then look wrong in their true pose and the learnt motion stays
+        // short of it. 200 warm-up iterations instead of 1500 (and no opacity reset, which
+        // would fall in the curriculum) moved the toys cube about twice as far along its true
+        // motion at the same test PSNR, in less time (README).
+        c.schedule.warmup_iters = 200;
+        c.schedule.iterations = 2700;
         c.schedule.sh_degree_interval = 500;
         c.schedule.checkpoint_every = 1000;
         c.densify.from_iter = 300;
-        c.densify.until_iter = 3000;
+        c.densify.until_iter = 2200;
         c.densify.interval = 100;
-        c.densify.opacity_reset_interval = 1500;
+        c.densify.opacity_reset_interval = 0;
         c.densify.max_gaussians = 20_000;
         // Temporal curriculum: warm up on the first 5 % of the time range, grow the window
         // over 1500 dynamic iterations with half of them on its newest stretch (toys-mini:
         // +0.95 dB test PSNR at the same cost, README). The position and field decays pause
-        // meanwhile, so they run over the remaining 1000 + 1500 iterations.
+        // meanwhile, so the position decay runs over the remaining 200 + 1000 iterations.
         c.schedule.warmup_time_window = 0.05;
         c.schedule.curriculum_iters = 1500;
         c.schedule.curriculum_focus = 0.5;
-        c.optim.lr_max_steps = 2500;
+        c.optim.lr_max_steps = 1200;
         c.loss.coherence_samples = 500;
         c
     }
