@@ -43,7 +43,6 @@ fn main() {
         .map_or(16.0, |s| s.parse().expect("REFINE: a number"));
     let l = checkpoint::load_model(&run.checkpoint()).expect("checkpoint");
     let mut model = l.model;
-    model.field.set_count(model.len());
     model.field.set_par(Par::best());
     let h = model.max_step;
     let times = model.anchor_times.clone();
@@ -52,15 +51,9 @@ fn main() {
         model.len()
     );
     println!("     t | |p(h) − p(h/r)| p50 p99 max | displacement p50 p99 max | max |p|");
-    let (mut stepper, mut coarse, mut fine, mut start) = (
-        None,
-        Splats::default(),
-        Splats::default(),
-        Splats::default(),
-    );
-    for w in times.windows(2) {
-        model.max_step = h;
-        model.splats_at(w[0], &mut stepper, &mut start);
+    let (mut stepper, mut coarse, mut fine) = (None, Splats::default(), Splats::default());
+    for (k, w) in times.windows(2).enumerate() {
+        let start = model.anchor_state(k).0.to_vec();
         for f in [0.25, 0.5, 0.75, 0.999] {
             let t = w[0] + f * (w[1] - w[0]);
             model.max_step = h;
@@ -71,7 +64,7 @@ fn main() {
                 .map(|i| f64::from((coarse.means[i] - fine.means[i]).norm()))
                 .collect();
             let mut disp: Vec<f64> = (0..model.len())
-                .map(|i| f64::from((fine.means[i] - start.means[i]).norm()))
+                .map(|i| f64::from((fine.means[i] - start[i]).norm()))
                 .collect();
             let far = fine
                 .means
