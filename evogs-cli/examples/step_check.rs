@@ -16,22 +16,11 @@ use evogs_cli::app::paths::RunFolder;
 use evogs_cli::run::checkpoint;
 use evogs_math::Par;
 use evogs_splat::Splats;
+use stats::pct;
 use std::path::PathBuf;
 
-/// The value below which a fraction `q` of the sorted values lie.
-fn pct(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    #[allow(
-        clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        clippy::cast_precision_loss,
-        reason = "an index into a short list"
-    )]
-    let i = ((sorted.len() - 1) as f64 * q).round() as usize;
-    sorted[i]
-}
+#[path = "common/stats.rs"]
+mod stats;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();

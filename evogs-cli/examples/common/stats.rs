@@ -1,0 +1,17 @@
+//! Small statistics shared by the diagnostic examples.
+
+/// The value below which a fraction `q` of the sorted values lie (the nearest rank; NaN for
+/// an empty list).
+pub(crate) fn pct(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    #[allow(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_precision_loss,
+        reason = "an index into a short list"
+    )]
+    let i = ((sorted.len() - 1) as f64 * q).round() as usize;
+    sorted[i]
+}
