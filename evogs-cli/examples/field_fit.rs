@@ -14,15 +14,18 @@
 
 use evogs_cli::config::TrainConfig;
 use evogs_cli::field::{NeuralField, TimeMapping};
-use evogs_cli::train::adam::{Adam, AdamState};
 use evogs_math::Vec3;
 use evogs_math::rng::SplitMix64;
 use evogs_math::so3::exp_quat;
+use field_adam::FieldAdam;
 use std::f64::consts::TAU;
 use toys_cube::{AXIS, CENTRE, HALF};
 
 #[path = "common/toys_cube.rs"]
 mod toys_cube;
+
+#[path = "common/field_adam.rs"]
+mod field_adam;
 
 /// Bounds of `data/toys-mini/points3d.ply` (rounded) and the `aabb_margin` of the presets.
 const LO: [f64; 3] = [-1.3, -1.3, -1.0];
@@ -52,9 +55,9 @@ fn main() {
         t_max: 1.0,
     };
     let mut field: NeuralField<f32> = NeuralField::new(&cfg.field, lo, hi, unit_time, cfg.seed);
-    let (gr, mr) = (field.grid_range(), field.mlp_range());
-    let (mut grid, mut mlp) = (AdamState::new(gr.len()), AdamState::new(mr.len()));
-    let adam = Adam::default();
+    let lr = lr_mult * EXTENT;
+    let o = &cfg.optim;
+    let mut adam = FieldAdam::new(&field, o.grid_lr_init * lr, o.deformation_lr_init * lr);
     let omega = AXIS * TAU;
     let mut rng = SplitMix64::new(1);
     let mut pos = vec![0f32; 3 * POINTS];
@@ -97,21 +100,7 @@ fn main() {
         }
         g.fill(0.0);
         field.vjp_batch(t32, &pos, 3, POINTS, &d_out, &mut d_pos, 3, &mut g);
-        let o = &cfg.optim;
-        let p = field.params_mut();
-        let lr = lr_mult * EXTENT;
-        grid.step(
-            &adam,
-            o.grid_lr_init * lr,
-            &mut p[gr.clone()],
-            &g[gr.clone()],
-        );
-        mlp.step(
-            &adam,
-            o.deformation_lr_init * lr,
-            &mut p[mr.clone()],
-            &g[mr.clone()],
-        );
+        adam.step(&mut field, &g, 1.0);
         if it.is_multiple_of(100) || it == 1 {
             println!(
                 "iteration {it:4}: relative error {:.3}",

@@ -30,16 +30,21 @@
 
 use evogs_cli::app::paths::RunFolder;
 use evogs_cli::app::train::load_dataset;
-use evogs_cli::model::Model;
+use evogs_cli::config::TrainConfig;
+use evogs_cli::model::{Model, ModelGrad};
 use evogs_cli::run::checkpoint;
-use evogs_cli::train::adam::{Adam, AdamState};
 use evogs_cli::train::views::training_views;
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Par, Quat, Vec3};
-use evogs_splat::Splats;
+use evogs_ode::Stepper;
+use evogs_splat::{Splats, SplatsGrad};
+use field_adam::FieldAdam;
 use stats::pct;
 use std::path::PathBuf;
 use toys_truth::{Body, Truth, meta_path};
+
+#[path = "common/field_adam.rs"]
+mod field_adam;
 
 #[path = "common/stats.rs"]
 mod stats;
@@ -53,20 +58,8 @@ const MARGIN: f64 = 0.05;
 const REPORT_TIMES: usize = 16;
 /// Reporting groups.
 const NAMES: [&str; 5] = ["static", "cube", "torus", "ball", "flag"];
-
-fn v64(v: Vec3<f32>) -> Vec3<f64> {
-    Vec3::new(v.x.into(), v.y.into(), v.z.into())
-}
-
-#[allow(clippy::cast_possible_truncation, reason = "the model runs in f32")]
-fn v32(v: Vec3<f64>) -> Vec3<f32> {
-    Vec3::new(v.x as f32, v.y as f32, v.z as f32)
-}
-
-#[allow(clippy::cast_possible_truncation, reason = "the model runs in f32")]
-fn q32(q: Quat<f64>) -> Quat<f32> {
-    Quat::new(q.w as f32, q.x as f32, q.y as f32, q.z as f32)
-}
+/// Half the time step of the central difference that gives the true velocities.
+const VELOCITY_EPS: f64 = 1e-3;
 
 /// The reporting group of a body (an index into [`NAMES`]).
 const fn group(b: Body) -> usize {
@@ -77,11 +70,15 @@ const fn group(b: Body) -> usize {
     }
 }
 
+/// A Gaussian's true position and orientation.
+type State = (Vec3<f64>, Quat<f64>);
+
 /// Where each Gaussian is at `t` and how it is turned, given its body and state at `t0`.
 struct Oracle {
     truth: Truth,
     body: Vec<Body>,
-    flag: Vec<(f64, f64)>,
+    /// Flag coordinates `(s, w)` and the offset from that flag point at `t0` (flag only).
+    flag: Vec<((f64, f64), Vec3<f64>)>,
     p0: Vec<Vec3<f64>>,
     q0: Vec<Quat<f64>>,
     t0: f64,
@@ -93,15 +90,16 @@ impl Oracle {
     fn new(truth: Truth, model: &Model<f32>) -> Self {
         let n = model.len();
         let t0 = model.anchor_times[0];
-        let ext = truth.extents();
-        let p0: Vec<Vec3<f64>> = model.canonical.means.iter().map(|&p| v64(p)).collect();
+        let ext = truth.extents;
+        let p0: Vec<Vec3<f64>> = model.canonical.means.iter().map(|p| p.cast()).collect();
         let q0 = model
             .canonical
             .quats
             .iter()
             .map(|q| q.normalize().cast())
             .collect();
-        let (mut body, mut flag) = (vec![Body::Static; n], vec![(0.0, 0.0); n]);
+        let mut body = vec![Body::Static; n];
+        let mut flag = vec![((0.0, 0.0), Vec3::zero()); n];
         let mut counts = [0usize; 5];
         for (i, &p) in p0.iter().enumerate() {
             let cube = truth.rigid[0].to_body(t0, p);
@@ -111,9 +109,9 @@ impl Oracle {
                 body[i] = Body::Rigid(1);
             } else if truth.rigid[2].to_body(t0, p).norm() <= ext[2] + MARGIN {
                 body[i] = Body::Rigid(2);
-            } else if let Some(sw) = truth.flag_coords(p, t0, MARGIN) {
+            } else if let Some((s, w)) = truth.flag.coords(p, t0, MARGIN) {
                 body[i] = Body::Flag;
-                flag[i] = sw;
+                flag[i] = ((s, w), p - truth.flag.point(s, w, t0));
             }
             counts[group(body[i])] += 1;
         }
@@ -128,26 +126,26 @@ impl Oracle {
         }
     }
 
-    fn state(&self, i: usize, t: f64) -> (Vec3<f64>, Quat<f64>) {
-        match self.body[i] {
+    /// Every Gaussian's true state at `t`, into `out`.
+    fn states(&self, t: f64, out: &mut Vec<State>) {
+        let carries: Vec<_> = self
+            .truth
+            .rigid
+            .iter()
+            .map(|r| r.carry(self.t0, t))
+            .collect();
+        out.clear();
+        out.extend(self.body.iter().enumerate().map(|(i, b)| match *b {
             Body::Static => (self.p0[i], self.q0[i]),
-            Body::Rigid(b) => {
-                let (rel, p) = self.truth.rigid[b].carry(self.t0, t, self.p0[i]);
-                (p, rel.mul_quat(self.q0[i]))
-            }
+            Body::Rigid(k) => (
+                carries[k].apply(self.p0[i]),
+                carries[k].rel.mul_quat(self.q0[i]),
+            ),
             Body::Flag => {
-                let (s, w) = self.flag[i];
-                let off = self.p0[i] - self.truth.flag_point(s, w, self.t0);
-                (self.truth.flag_point(s, w, t) + off, self.q0[i])
+                let ((s, w), off) = self.flag[i];
+                (self.truth.flag.point(s, w, t) + off, self.q0[i])
             }
-        }
-    }
-
-    /// The true velocity of Gaussian `i` at `t` (a central difference, one-sided at the ends
-    /// of `[0, 1]`).
-    fn velocity(&self, i: usize, t: f64) -> Vec3<f64> {
-        let (a, b) = ((t - 1e-3).max(0.0), (t + 1e-3).min(1.0));
-        (self.state(i, b).0 - self.state(i, a).0) * (1.0 / (b - a))
+        }));
     }
 
     fn weight(&self, i: usize, static_weight: f64) -> f64 {
@@ -159,16 +157,53 @@ impl Oracle {
     }
 }
 
+/// Buffers reused by every step of a fit.
+struct Workspace {
+    stepper: Option<Stepper<f32>>,
+    out: Splats<f32>,
+    d: SplatsGrad<f32>,
+    grad: ModelGrad<f32>,
+    /// True states at the step's time and `VELOCITY_EPS` before and after it.
+    now: Vec<State>,
+    before: Vec<State>,
+    after: Vec<State>,
+    pos: Vec<f32>,
+    field_out: Vec<f32>,
+    d_out: Vec<f32>,
+    d_pos: Vec<f32>,
+    g: Vec<f32>,
+}
+
+impl Workspace {
+    fn new(model: &Model<f32>) -> Self {
+        let n = model.len();
+        Self {
+            stepper: None,
+            out: Splats::default(),
+            d: model.zero_grad().canonical,
+            grad: model.zero_grad(),
+            now: Vec::with_capacity(n),
+            before: Vec::with_capacity(n),
+            after: Vec::with_capacity(n),
+            pos: vec![0.0; 3 * n],
+            field_out: vec![0.0; 9 * n],
+            d_out: vec![0.0; 9 * n],
+            d_pos: vec![0.0; 3 * n],
+            g: vec![0.0; model.field.params().len()],
+        }
+    }
+}
+
 /// Prints the position error per body over [`REPORT_TIMES`] evenly spaced times.
-fn report(model: &mut Model<f32>, oracle: &Oracle, it: usize) {
-    let (mut stepper, mut out) = (None, Splats::default());
+fn report(model: &mut Model<f32>, oracle: &Oracle, ws: &mut Workspace, it: usize) {
     let mut all: [Vec<f64>; 5] = Default::default();
     for k in 0..REPORT_TIMES {
         #[allow(clippy::cast_precision_loss, reason = "small counts")]
         let t = (k as f64 + 0.5) / REPORT_TIMES as f64;
-        model.splats_at(t, &mut stepper, &mut out);
-        for (i, &m) in out.means.iter().enumerate() {
-            all[group(oracle.body[i])].push((v64(m) - oracle.state(i, t).0).norm());
+        model.splats_at(t, &mut ws.stepper, &mut ws.out);
+        oracle.states(t, &mut ws.now);
+        for (i, m) in ws.out.means.iter().enumerate() {
+            all[group(oracle.body[i])].push((m.cast() - ws.now[i].0).norm());
         }
     }
     let parts: Vec<String> = all
@@ -189,77 +224,71 @@ fn report(model: &mut Model<f32>, oracle: &Oracle, it: usize) {
     println!("iteration {it:5}: position error RMS {}", parts.join(", "));
 }
 
-/// The field's two Adam groups at the run's initial rates.
-struct FieldAdam {
-    grid: AdamState,
-    mlp: AdamState,
-    adam: Adam,
-    grid_lr: f64,
-    mlp_lr: f64,
-}
-
-impl FieldAdam {
-    fn step(&mut self, model: &mut Model<f32>, g: &[f32], scale: f64) {
-        let (gr, mr) = (model.field.grid_range(), model.field.mlp_range());
-        let p = model.field.params_mut();
-        self.grid
-            .step(&self.adam, self.grid_lr * scale, &mut p[gr.clone()], &g[gr]);
-        self.mlp
-            .step(&self.adam, self.mlp_lr * scale, &mut p[mr.clone()], &g[mr]);
-    }
-}
-
-/// One step of the trajectory fit at `t`: through the stepper and the discrete adjoint.
+/// One step of the trajectory fit at `t`, through the stepper and the discrete adjoint; the
+/// field's gradient lands in `ws.grad.field`.
 fn trajectory_step(
     model: &mut Model<f32>,
     oracle: &Oracle,
     t: f64,
     static_weight: f64,
-) -> Vec<f32> {
-    let n = model.len();
+    ws: &mut Workspace,
+) {
     #[allow(clippy::cast_precision_loss, reason = "a count")]
-    let inv_n = 1.0 / n as f64;
-    let (mut stepper, mut out) = (None, Splats::default());
-    let tape = model.splats_at(t, &mut stepper, &mut out);
-    let mut d = model.zero_grad().canonical;
-    for i in 0..n {
-        let (p, q) = oracle.state(i, t);
+    let inv_n = 1.0 / model.len() as f64;
+    let tape = model.splats_at(t, &mut ws.stepper, &mut ws.out);
+    oracle.states(t, &mut ws.now);
+    for (i, &(p, q)) in ws.now.iter().enumerate() {
         let w = 2.0 * oracle.weight(i, static_weight) * inv_n;
-        d.means[i] = v32((v64(out.means[i]) - p) * w);
-        let qm: Quat<f64> = out.quats[i].cast();
+        ws.d.means[i] = ((ws.out.means[i].cast() - p) * w).cast();
+        let qm: Quat<f64> = ws.out.quats[i].cast();
         let q = if qm.dot(q) < 0.0 { q.scale(-1.0) } else { q };
-        d.quats[i] = q32(Quat::new(qm.w - q.w, qm.x - q.x, qm.y - q.y, qm.z - q.z).scale(w));
-        let ds = v64(out.log_scales[i]) - v64(model.canonical.log_scales[i]);
-        d.log_scales[i] = v32(ds * w);
+        ws.d.quats[i] = Quat::new(qm.w - q.w, qm.x - q.x, qm.y - q.y, qm.z - q.z)
+            .scale(w)
+            .cast();
+        let ds = ws.out.log_scales[i].cast() - model.canonical.log_scales[i].cast();
+        ws.d.log_scales[i] = (ds * w).cast();
     }
-    let mut grad = model.zero_grad();
-    model.backward_at(&tape, &mut stepper, &d, &mut grad);
-    grad.field
+    ws.grad.fill_zero();
+    model.backward_at(&tape, &mut ws.stepper, &ws.d, &mut ws.grad);
 }
 
-/// One step of the velocity regression at `t`, at the Gaussians' true positions.
-fn velocity_step(model: &mut Model<f32>, oracle: &Oracle, t: f64, static_weight: f64) -> Vec<f32> {
+/// One step of the velocity regression at `t`, at the Gaussians' true positions (the true
+/// velocity is a central difference, one-sided at the ends of `[0, 1]`); the field's gradient
+/// lands in `ws.g`.
+fn velocity_step(
+    model: &mut Model<f32>,
+    oracle: &Oracle,
+    t: f64,
+    static_weight: f64,
+    ws: &mut Workspace,
+) {
     let n = model.len();
     #[allow(clippy::cast_precision_loss, reason = "a count")]
     let inv_n = 1.0 / n as f64;
-    let pos: Vec<f32> = (0..n)
-        .flat_map(|i| v32(oracle.state(i, t).0).to_array())
-        .collect();
-    let (mut out, mut d_out) = (vec![0f32; 9 * n], vec![0f32; 9 * n]);
+    let (a, b) = ((t - VELOCITY_EPS).max(0.0), (t + VELOCITY_EPS).min(1.0));
+    oracle.states(t, &mut ws.now);
+    oracle.states(a, &mut ws.before);
+    oracle.states(b, &mut ws.after);
+    for (i, s) in ws.now.iter().enumerate() {
+        s.0.cast::<f32>().write_to(&mut ws.pos[3 * i..]);
+    }
     #[allow(clippy::cast_possible_truncation, reason = "the field runs in f32")]
     let t32 = t as f32;
     model.field.set_count(n);
-    model.field.eval_batch(t32, &pos, 3, n, &mut out);
-    for i in 0..n {
-        let e = v64(Vec3::from_slice(&out[9 * i..])) - oracle.velocity(i, t);
-        v32(e * (2.0 * oracle.weight(i, static_weight) * inv_n)).write_to(&mut d_out[9 * i..]);
-    }
-    let mut d_pos = vec![0f32; 3 * n];
-    let mut g = vec![0f32; model.field.params().len()];
     model
         .field
-        .vjp_batch(t32, &pos, 3, n, &d_out, &mut d_pos, 3, &mut g);
-    g
+        .eval_batch(t32, &ws.pos, 3, n, &mut ws.field_out);
+    for i in 0..n {
+        let v = (ws.after[i].0 - ws.before[i].0) * (1.0 / (b - a));
+        let e = Vec3::<f32>::from_slice(&ws.field_out[9 * i..]).cast() - v;
+        (e * (2.0 * oracle.weight(i, static_weight) * inv_n))
+            .cast::<f32>()
+            .write_to(&mut ws.d_out[9 * i..]);
+    }
+    ws.g.fill(0.0);
+    model
+        .field
+        .vjp_batch(t32, &ws.pos, 3, n, &ws.d_out, &mut ws.d_pos, 3, &mut ws.g);
 }
 
 fn main() {
@@ -282,8 +311,9 @@ fn main() {
     )]
     let iters = num(3, 2000.0) as usize;
     let (static_weight, lr_mult, step_fraction) = (num(4, 3.0), num(5, 1.0), num(6, 0.0));
-    let l = checkpoint::load_model(&run.checkpoint()).expect("checkpoint");
-    let ds = load_dataset(&run.data_dir().expect("data folder"), &l.cfg, true).expect("dataset");
+    let text = std::fs::read_to_string(run.config()).expect("the run's config.toml");
+    let cfg = TrainConfig::from_run_toml(&text).expect("the run's config.toml");
+    let ds = load_dataset(&run.data_dir().expect("data folder"), &cfg, true).expect("dataset");
     let views = training_views(&ds.train, &(0..ds.train.len()).collect::<Vec<_>>()).expect("views");
     let mut tr = checkpoint::resume(&run.checkpoint(), views).expect("checkpoint");
     assert!(
@@ -298,38 +328,37 @@ fn main() {
     }
     let oracle = Oracle::new(Truth::load(&meta_path()), model);
     println!("{} Gaussians: {NAMES:?} = {:?}", model.len(), oracle.counts);
+    let mut ws = Workspace::new(model);
     for k in 1..model.anchor_times.len() {
-        let tk = model.anchor_times[k];
+        oracle.states(model.anchor_times[k], &mut ws.now);
         let a = &mut model.anchors[k - 1];
-        for i in 0..a.means.len() {
-            let (p, q) = oracle.state(i, tk);
-            a.means[i] = v32(p);
-            a.quats[i] = q32(q);
+        for (i, &(p, q)) in ws.now.iter().enumerate() {
+            a.means[i] = p.cast();
+            a.quats[i] = q.cast();
         }
     }
     model.dynamics_active = true;
-    let (gr, mr) = (model.field.grid_range(), model.field.mlp_range());
-    let mut opt = FieldAdam {
-        grid: AdamState::new(gr.len()),
-        mlp: AdamState::new(mr.len()),
-        adam: Adam::default(),
-        grid_lr: tr.cfg.optim.grid_lr_init * tr.extent * lr_mult,
-        mlp_lr: tr.cfg.optim.deformation_lr_init * tr.extent * lr_mult,
-    };
+    let o = &tr.cfg.optim;
+    let mut adam = FieldAdam::new(
+        &model.field,
+        o.grid_lr_init * tr.extent * lr_mult,
+        o.deformation_lr_init * tr.extent * lr_mult,
+    );
     let mut rng = SplitMix64::new(7);
-    report(model, &oracle, 0);
+    report(model, &oracle, &mut ws, 0);
     for it in 1..=iters {
         let t = rng.uniform(0.0, 1.0);
-        let g = if trajectory {
-            trajectory_step(model, &oracle, t, static_weight)
-        } else {
-            velocity_step(model, &oracle, t, static_weight)
-        };
         #[allow(clippy::cast_precision_loss, reason = "small counts")]
         let decay = 0.01f64.powf(it as f64 / iters as f64);
-        opt.step(model, &g, decay);
+        if trajectory {
+            trajectory_step(model, &oracle, t, static_weight, &mut ws);
+            adam.step(&mut model.field, &ws.grad.field, decay);
+        } else {
+            velocity_step(model, &oracle, t, static_weight, &mut ws);
+            adam.step(&mut model.field, &ws.g, decay);
+        }
         if it.is_multiple_of(500) || it == iters {
-            report(model, &oracle, it);
+            report(model, &oracle, &mut ws, it);
         }
     }
     model.max_step = run_step;

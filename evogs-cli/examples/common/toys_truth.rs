@@ -19,6 +19,22 @@ pub(crate) enum Body {
     Flag,
 }
 
+/// A rigid body's motion between two times: the rotation `rel` about its origin, which moves
+/// from `from` to `to`.
+pub(crate) struct Carry {
+    /// The rotation from the earlier pose to the later one.
+    pub(crate) rel: Quat<f64>,
+    from: Vec3<f64>,
+    to: Vec3<f64>,
+}
+
+impl Carry {
+    /// Where a point of the body at `p` at the earlier time is at the later one.
+    pub(crate) fn apply(&self, p: Vec3<f64>) -> Vec3<f64> {
+        self.rel.rotate(p - self.from) + self.to
+    }
+}
+
 /// A rigid body's pose at the sampled times.
 pub(crate) struct RigidTrack {
     /// Frame times, increasing.
@@ -49,13 +65,15 @@ impl RigidTrack {
         (q, c0 + (c1 - c0) * a)
     }
 
-    /// The rotation from the pose at `t0` to the pose at `t`, and where a point at `p` at
-    /// `t0` is at `t`.
-    pub(crate) fn carry(&self, t0: f64, t: f64, p: Vec3<f64>) -> (Quat<f64>, Vec3<f64>) {
-        let (qa, ca) = self.pose(t0);
-        let (qb, cb) = self.pose(t);
-        let rel = qb.mul_quat(qa.conj());
-        (rel, rel.rotate(p - ca) + cb)
+    /// The body's motion from its pose at `t0` to its pose at `t`.
+    pub(crate) fn carry(&self, t0: f64, t: f64) -> Carry {
+        let (qa, from) = self.pose(t0);
+        let (qb, to) = self.pose(t);
+        Carry {
+            rel: qb.mul_quat(qa.conj()),
+            from,
+            to,
+        }
     }
 
     /// The point `p` (world, at `t0`) in body coordinates.
@@ -65,11 +83,77 @@ impl RigidTrack {
     }
 }
 
+/// The flag's vertex formula and its parameters (`meta.json`, `objects.flag`).
+pub(crate) struct FlagMotion {
+    a0: f64,
+    f_hz: f64,
+    k: f64,
+    width: f64,
+    height: f64,
+    z0: f64,
+    pole: [f64; 2],
+    /// Physical seconds per unit of normalised time.
+    seconds: f64,
+}
+
+impl FlagMotion {
+    fn load(meta: &Value) -> Self {
+        let flag = &meta["objects"]["flag"];
+        let n = |v: &Value| v.as_f64().expect("a flag parameter");
+        Self {
+            a0: n(&flag["A0"]),
+            f_hz: n(&flag["f_hz"]),
+            k: n(&flag["k"]),
+            width: n(&flag["W"]),
+            height: n(&flag["H"]),
+            z0: n(&flag["z0"]),
+            pole: [n(&flag["pole_xy"][0]), n(&flag["pole_xy"][1])],
+            seconds: n(&meta["time"]["T_phys_s"]),
+        }
+    }
+
+    /// The flag's surface point at flag coordinates `(s, w)` and normalised time `t`.
+    pub(crate) fn point(&self, s: f64, w: f64, t: f64) -> Vec3<f64> {
+        let tau = t * self.seconds;
+        let amp = self.a0 * (1.0 + 0.3 * (TAU * 0.4 * tau).sin());
+        Vec3::new(
+            self.pole[0]
+                + amp
+                    * s.max(0.0).powf(1.3)
+                    * (TAU * (self.k * s - self.f_hz * tau) + 0.8 * w).sin(),
+            self.pole[1]
+                + 0.035
+                + self.width * s * (1.0 - 0.04 * s * (1.0 + (TAU * self.f_hz * tau).sin())),
+            self.z0 + self.height * w - 0.05 * s * s,
+        )
+    }
+
+    /// The flag coordinates `(s, w)` of a point at time `t0` if it lies within `margin` of
+    /// the flag.
+    pub(crate) fn coords(&self, p: Vec3<f64>, t0: f64, margin: f64) -> Option<(f64, f64)> {
+        // Invert y and z by a few fixed-point sweeps (the x wave does not enter them).
+        let tau = t0 * self.seconds;
+        let bend = 0.04 * (1.0 + (TAU * self.f_hz * tau).sin());
+        let py = self.pole[1];
+        let mut s = (p.y - py - 0.035) / self.width;
+        for _ in 0..20 {
+            s = (p.y - py - 0.035) / (self.width * (1.0 - bend * s));
+        }
+        let w = (p.z - self.z0 + 0.05 * s * s) / self.height;
+        let inside = (-0.05..=1.05).contains(&s) && (-0.05..=1.05).contains(&w);
+        (inside && (self.point(s, w, t0) - p).norm() <= margin).then_some((s, w))
+    }
+}
+
 /// The scene's motions.
 pub(crate) struct Truth {
     /// Cube, torus and ball.
     pub(crate) rigid: Vec<RigidTrack>,
-    meta: Value,
+    /// The flag.
+    pub(crate) flag: FlagMotion,
+    /// Sizes used to decide membership: the cube's half edge, the torus's outer radius, the
+    /// ball's radius.
+    pub(crate) extents: [f64; 3],
 }
 
 /// The meta file shipped with the repository.
@@ -107,78 +191,17 @@ impl Truth {
                 poses: frames.iter().map(|f| (f.1, f.2)).collect(),
             });
         }
-        Self { rigid, meta }
-    }
-
-    fn flag_number(&self, key: &str) -> f64 {
-        self.meta["objects"]["flag"][key]
-            .as_f64()
-            .expect("flag parameter")
-    }
-
-    /// Physical seconds per unit of normalised time.
-    fn seconds(&self) -> f64 {
-        self.meta["time"]["T_phys_s"].as_f64().expect("T_phys_s")
-    }
-
-    /// The flag's surface point at flag coordinates `(s, w)` and normalised time `t`.
-    pub(crate) fn flag_point(&self, s: f64, w: f64, t: f64) -> Vec3<f64> {
-        let tau = t * self.seconds();
-        let (a0, f, k) = (
-            self.flag_number("A0"),
-            self.flag_number("f_hz"),
-            self.flag_number("k"),
-        );
-        let (wd, h, z0) = (
-            self.flag_number("W"),
-            self.flag_number("H"),
-            self.flag_number("z0"),
-        );
-        let pole = &self.meta["objects"]["flag"]["pole_xy"];
-        let (px, py) = (
-            pole[0].as_f64().expect("pole"),
-            pole[1].as_f64().expect("pole"),
-        );
-        let amp = a0 * (1.0 + 0.3 * (TAU * 0.4 * tau).sin());
-        Vec3::new(
-            px + amp * s.max(0.0).powf(1.3) * (TAU * (k * s - f * tau) + 0.8 * w).sin(),
-            py + 0.035 + wd * s * (1.0 - 0.04 * s * (1.0 + (TAU * f * tau).sin())),
-            z0 + h * w - 0.05 * s * s,
-        )
-    }
-
-    /// The flag coordinates `(s, w)` of a point at time `t0` if it lies within `margin` of
-    /// the flag.
-    pub(crate) fn flag_coords(&self, p: Vec3<f64>, t0: f64, margin: f64) -> Option<(f64, f64)> {
-        // Invert y and z by a few fixed-point sweeps (the x wave does not enter them).
-        let (wd, h, z0) = (
-            self.flag_number("W"),
-            self.flag_number("H"),
-            self.flag_number("z0"),
-        );
-        let py = self.meta["objects"]["flag"]["pole_xy"][1]
-            .as_f64()
-            .expect("pole");
-        let tau = t0 * self.seconds();
-        let bend = 0.04 * (1.0 + (TAU * self.flag_number("f_hz") * tau).sin());
-        let mut s = (p.y - py - 0.035) / wd;
-        for _ in 0..20 {
-            s = (p.y - py - 0.035) / (wd * (1.0 - bend * s));
-        }
-        let w = (p.z - z0 + 0.05 * s * s) / h;
-        let inside = (-0.05..=1.05).contains(&s) && (-0.05..=1.05).contains(&w);
-        (inside && (self.flag_point(s, w, t0) - p).norm() <= margin).then_some((s, w))
-    }
-
-    /// Sizes used to decide membership: the cube's half edge, the torus's outer radius, the
-    /// ball's radius.
-    pub(crate) fn extents(&self) -> [f64; 3] {
-        let o = &self.meta["objects"];
+        let o = &meta["objects"];
         let n = |v: &Value| v.as_f64().expect("a size");
-        [
+        let extents = [
             n(&o["cube"]["half_size"]),
             n(&o["torus"]["major_radius"]) + n(&o["torus"]["minor_radius"]),
             n(&o["ball"]["radius"]),
-        ]
+        ];
+        Self {
+            rigid,
+            flag: FlagMotion::load(&meta),
+            extents,
+        }
     }
 }
