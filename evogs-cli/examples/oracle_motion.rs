@@ -128,12 +128,7 @@ impl Oracle {
 
     /// Every Gaussian's true state at `t`, into `out`.
     fn states(&self, t: f64, out: &mut Vec<State>) {
-        let carries: Vec<_> = self
-            .truth
-            .rigid
-            .iter()
-            .map(|r| r.carry(self.t0, t))
-            .collect();
+        let carries = self.truth.rigid.each_ref().map(|r| r.carry(self.t0, t));
         out.clear();
         out.extend(self.body.iter().enumerate().map(|(i, b)| match *b {
             Body::Static => (self.p0[i], self.q0[i]),
@@ -241,10 +236,8 @@ fn trajectory_step(
         let w = 2.0 * oracle.weight(i, static_weight) * inv_n;
         ws.d.means[i] = ((ws.out.means[i].cast() - p) * w).cast();
         let qm: Quat<f64> = ws.out.quats[i].cast();
-        let q = if qm.dot(q) < 0.0 { q.scale(-1.0) } else { q };
-        ws.d.quats[i] = Quat::new(qm.w - q.w, qm.x - q.x, qm.y - q.y, qm.z - q.z)
-            .scale(w)
-            .cast();
+        let q = if qm.dot(q) < 0.0 { -q } else { q };
+        ws.d.quats[i] = (qm - q).scale(w).cast();
         let ds = ws.out.log_scales[i].cast() - model.canonical.log_scales[i].cast();
         ws.d.log_scales[i] = (ds * w).cast();
     }

@@ -59,7 +59,7 @@ impl RigidTrack {
         let (q1, c1) = self.poses[j];
         let mut rel = q0.conj().mul_quat(q1);
         if rel.w < 0.0 {
-            rel = rel.scale(-1.0);
+            rel = -rel;
         }
         let q = q0.mul_quat(exp_quat(log_quat(rel) * a));
         (q, c0 + (c1 - c0) * a)
@@ -148,7 +148,7 @@ impl FlagMotion {
 /// The scene's motions.
 pub(crate) struct Truth {
     /// Cube, torus and ball.
-    pub(crate) rigid: Vec<RigidTrack>,
+    pub(crate) rigid: [RigidTrack; 3],
     /// The flag.
     pub(crate) flag: FlagMotion,
     /// Sizes used to decide membership: the cube's half edge, the torus's outer radius, the
@@ -166,8 +166,7 @@ impl Truth {
     pub(crate) fn load(path: &std::path::Path) -> Self {
         let text = std::fs::read_to_string(path).expect("toys meta.json");
         let meta: Value = serde_json::from_str(&text).expect("meta.json: JSON");
-        let mut rigid = Vec::new();
-        for name in ["cube", "torus", "ball"] {
+        let rigid = ["cube", "torus", "ball"].map(|name| {
             let mut frames: Vec<(f64, Quat<f64>, Vec3<f64>)> = Vec::new();
             for split in ["train", "val", "test"] {
                 for f in meta["frames"][split].as_array().expect("frames") {
@@ -186,11 +185,11 @@ impl Truth {
             }
             frames.sort_by(|a, b| a.0.total_cmp(&b.0));
             frames.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-12);
-            rigid.push(RigidTrack {
+            RigidTrack {
                 times: frames.iter().map(|f| f.0).collect(),
                 poses: frames.iter().map(|f| (f.1, f.2)).collect(),
-            });
-        }
+            }
+        });
         let o = &meta["objects"];
         let n = |v: &Value| v.as_f64().expect("a size");
         let extents = [
