@@ -6,6 +6,7 @@
 
 use crate::field::{HexPlaneConfig, NeuralFieldConfig};
 use crate::model::{Motion, Waypoints};
+use crate::motion::SpinSearchConfig;
 use serde::{Deserialize, Serialize};
 
 /// Everything a training run needs to know.
@@ -32,6 +33,8 @@ pub struct TrainConfig {
     pub densify: DensifyConfig,
     /// Iteration counts and periodic tasks.
     pub schedule: ScheduleConfig,
+    /// The spin search (off unless `at_iter` is set; see [`crate::motion`]).
+    pub spin_search: SpinSearchConfig,
 }
 
 /// Data loading and the training protocol.
@@ -375,6 +378,7 @@ impl TrainConfig {
                 curriculum_focus: 0.0,
                 views_per_step: 1,
             },
+            spin_search: SpinSearchConfig::default(),
         }
     }
 
@@ -490,7 +494,7 @@ impl TrainConfig {
             (0.0..=1.0).contains(&self.loss.lambda_ssim),
             "loss.lambda_ssim must be in [0, 1]",
         )?;
-        Ok(())
+        self.spin_search.validate()
     }
 }
 
@@ -563,6 +567,28 @@ mod tests {
                 .expect("parses");
             assert!(c.validate().is_err(), "views_per_step = {bad} rejected");
         }
+        for bad in [
+            "view_stride = 0",
+            "multipliers = []",
+            "spin_fit_until = 0.0",
+            "link = -1.0",
+        ] {
+            let c = c
+                .merge_toml(&format!("[spin_search]\n{bad}\n"))
+                .expect("parses");
+            assert!(c.validate().is_err(), "spin_search.{bad} rejected");
+        }
+    }
+
+    #[test]
+    fn run_configs_without_a_spin_search_read_with_it_off() {
+        let mut text: toml::Value = toml::from_str(&TrainConfig::fast().to_toml()).expect("toml");
+        let table = text.as_table_mut().expect("a table");
+        assert!(table.remove("spin_search").is_some(), "fast writes it");
+        let old =
+            TrainConfig::from_run_toml(&toml::to_string(&text).expect("toml")).expect("reads");
+        assert_eq!(old.spin_search, SpinSearchConfig::default());
+        assert_eq!(old.spin_search.at_iter, 0, "off");
     }
 
     #[test]

@@ -259,3 +259,40 @@ fn curriculum_window_grows_and_initialises_anchors_on_arrival() {
         "anchor gap {gap:e} → {closed:e}"
     );
 }
+
+#[test]
+fn the_spin_search_is_due_once_and_leaves_a_trainable_model() {
+    let mut c = tiny_config();
+    c.spin_search.at_iter = 70;
+    // The tiny run's motion is small: a low threshold and small bodies let it find some.
+    c.spin_search.move_threshold = 1e-4;
+    c.spin_search.min_body = 25;
+    c.spin_search.view_stride = 8;
+    c.spin_search.fine_step = 0.0;
+    c.spin_search.min_spin = 0.0;
+    c.spin_search.max_radius = 10.0;
+    c.spin_search.multipliers = vec![0.0, 1.0, 2.0];
+    c.spin_search.fit_iters = 20;
+    let mut t = trainer(c);
+    let mut due = Vec::new();
+    let mut chosen = Vec::new();
+    while !t.finished() {
+        if t.spin_search_due() {
+            due.push(t.iteration);
+            chosen = t.spin_search(&mut |_| {});
+        }
+        t.step().expect("finite step after the search");
+    }
+    assert_eq!(due, vec![70], "due exactly once, after iteration 70");
+    assert!(
+        chosen.iter().any(Option::is_some),
+        "at least one body searched: {chosen:?}"
+    );
+    assert!(t.model.field.params().iter().all(|v| v.is_finite()));
+    assert!(
+        t.model
+            .anchors
+            .iter()
+            .all(|a| a.means.iter().all(|m| m.is_finite()))
+    );
+}

@@ -1,0 +1,104 @@
+//! Whole-body motion search: a global correction of the learnt motion that gradient descent
+//! cannot make.
+//!
+//! Photometric training turns a spinning body in nearly the right direction but stops at a
+//! fraction of its spin: along the path of rigid poses from the learnt spin to the true one
+//! the loss rises before it falls (README, "What stops it"), so the gradient points back.
+//! A search over that path needs no gradient. [`bodies`] groups the Gaussians that move
+//! together into bodies and fits each body's learnt motion as a constant spin `ω` about its
+//! centroid; [`spin`] scans a multiplier `s` of each body's spin by the photometric training
+//! loss, then teaches the field the best spin (velocity regression) and sets the anchors, so
+//! that training continues from it. [`crate::train::trainer::Trainer::spin_search`] runs
+//! both at `[spin_search] at_iter`.
+//!
+//! The model of a body's motion is `x(t) = c(t) + R(s·ω·(t − t₀))(x₀ − c₀)`: its centroid
+//! path `c(t)` kept as learnt, its orientation turned at a constant rate. Bodies that do not
+//! spin (or groups too large to be one body) are left as learnt.
+
+pub mod bodies;
+pub mod spin;
+
+use serde::{Deserialize, Serialize};
+
+/// Settings of the spin search (`[spin_search]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpinSearchConfig {
+    /// Run the search after this many iterations (0: never). It needs the dynamics on and
+    /// `velocity` motion; after the temporal curriculum is the natural time.
+    pub at_iter: u64,
+    /// A Gaussian moves if its learnt path leaves its canonical position by more than this
+    /// (scene units).
+    pub move_threshold: f64,
+    /// Moving Gaussians closer than this at the canonical time belong to one body.
+    pub link: f64,
+    /// Smallest group of moving Gaussians taken as a body.
+    pub min_body: usize,
+    /// Largest body radius searched (scene units; larger groups are not one rigid body).
+    pub max_radius: f64,
+    /// Slowest learnt spin searched (radians per unit time).
+    pub min_spin: f64,
+    /// Fraction of the time range, from its start, over which the constant spin is fitted
+    /// to the learnt rotations (short, so the fitted angles stay below π).
+    pub spin_fit_until: f64,
+    /// Every this-many-th training view enters the search's loss.
+    pub view_stride: usize,
+    /// Spin multipliers scanned first.
+    pub multipliers: Vec<f64>,
+    /// Step of the fine scan, four steps either side of the best coarse multiplier (0: no
+    /// fine scan).
+    pub fine_step: f64,
+    /// Adam steps of the velocity regression that teaches the field the chosen spins.
+    pub fit_iters: usize,
+}
+
+impl Default for SpinSearchConfig {
+    fn default() -> Self {
+        Self {
+            at_iter: 0,
+            move_threshold: 0.05,
+            link: 0.04,
+            min_body: 150,
+            max_radius: 0.6,
+            min_spin: 0.5,
+            spin_fit_until: 0.25,
+            view_stride: 2,
+            multipliers: vec![
+                0.0, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 2.75, 3.0, 3.5, 4.0,
+                5.0, 6.0,
+            ],
+            fine_step: 0.0625,
+            fit_iters: 1000,
+        }
+    }
+}
+
+impl SpinSearchConfig {
+    /// Checks the values for consistency.
+    ///
+    /// # Errors
+    /// A message naming the offending field.
+    pub fn validate(&self) -> Result<(), String> {
+        let chk = |ok: bool, msg: &str| if ok { Ok(()) } else { Err(msg.to_string()) };
+        chk(
+            self.move_threshold > 0.0 && self.link > 0.0 && self.max_radius > 0.0,
+            "spin_search.move_threshold, link and max_radius must be positive",
+        )?;
+        chk(
+            self.spin_fit_until > 0.0 && self.spin_fit_until <= 1.0,
+            "spin_search.spin_fit_until must be in (0, 1]",
+        )?;
+        chk(
+            self.view_stride >= 1,
+            "spin_search.view_stride must be at least 1",
+        )?;
+        chk(
+            !self.multipliers.is_empty() && self.multipliers.iter().all(|m| m.is_finite()),
+            "spin_search.multipliers must be a non-empty list of finite numbers",
+        )?;
+        chk(
+            self.fine_step >= 0.0 && self.fine_step.is_finite(),
+            "spin_search.fine_step must be a non-negative number",
+        )
+    }
+}
