@@ -567,28 +567,6 @@ mod tests {
                 .expect("parses");
             assert!(c.validate().is_err(), "views_per_step = {bad} rejected");
         }
-        for bad in [
-            "view_stride = 0",
-            "multipliers = []",
-            "spin_fit_until = 0.0",
-            "link = -1.0",
-        ] {
-            let c = c
-                .merge_toml(&format!("[spin_search]\n{bad}\n"))
-                .expect("parses");
-            assert!(c.validate().is_err(), "spin_search.{bad} rejected");
-        }
-    }
-
-    #[test]
-    fn run_configs_without_a_spin_search_read_with_it_off() {
-        let mut text: toml::Value = toml::from_str(&TrainConfig::fast().to_toml()).expect("toml");
-        let table = text.as_table_mut().expect("a table");
-        assert!(table.remove("spin_search").is_some(), "fast writes it");
-        let old =
-            TrainConfig::from_run_toml(&toml::to_string(&text).expect("toml")).expect("reads");
-        assert_eq!(old.spin_search, SpinSearchConfig::default());
-        assert_eq!(old.spin_search.at_iter, 0, "off");
     }
 
     #[test]

@@ -53,10 +53,12 @@ pub struct SearchContext<'a> {
     pub opts: RenderOptions<f32>,
     /// D-SSIM weight of the loss.
     pub lambda: f32,
-    /// Canonical positions and unit orientations.
+    /// Canonical positions.
     pub p0: Vec<Vec3<f64>>,
     /// Canonical unit orientations.
     pub q0: Vec<Quat<f64>>,
+    /// Canonical log-scales (a spun body keeps them).
+    pub log_scales: Vec<Vec3<f32>>,
     /// Parallelism of the loss.
     pub par: Par,
 }
@@ -76,12 +78,12 @@ fn scan(
     let (mut rast, mut ssim) = (TiledRasterizer::new(), SsimWorkspace::default());
     let (mut st, mut probe) = (Splats::default(), Splats::default());
     let mut total = vec![0.0; mults.len() + 1];
-    let log_scales = model.canonical.log_scales.clone();
+    let log_scales = &ctx.log_scales;
     for v in &ctx.views {
         model.splats_at(v.time, stepper, &mut st);
         for (c, body) in bodies.iter().enumerate() {
             if let Some(s) = chosen[c] {
-                place(&mut st, body, v.time, s, &ctx.p0, &ctx.q0, &log_scales);
+                place(&mut st, body, v.time, s, &ctx.p0, &ctx.q0, log_scales);
             }
         }
         let mut loss = |s: &Splats<f32>| {
@@ -91,16 +93,11 @@ fn scan(
             )
         };
         total[mults.len()] += loss(&st);
+        // Every multiplier overwrites the same members, so one copy per view serves them all.
+        probe.clone_from(&st);
         for (j, &s) in mults.iter().enumerate() {
-            probe.clone_from(&st);
             place(
-                &mut probe,
-                &bodies[b],
-                v.time,
-                s,
-                &ctx.p0,
-                &ctx.q0,
-                &log_scales,
+                &mut probe, &bodies[b], v.time, s, &ctx.p0, &ctx.q0, log_scales,
             );
             total[j] += loss(&probe);
         }
@@ -132,7 +129,8 @@ pub fn search(
         let coarse = scan(model, ctx, bodies, &chosen, b, &cfg.multipliers, stepper);
         let m = cfg.multipliers.len();
         let own = coarse[m];
-        let centre = cfg.multipliers[argmin(&coarse, m)];
+        let coarse_best = argmin(&coarse, m);
+        let centre = cfg.multipliers[coarse_best];
         let (fine, fine_loss) = if cfg.fine_step > 0.0 {
             let fine: Vec<f64> = (-4..=4)
                 .map(|k| f64::from(k).mul_add(cfg.fine_step, centre))
@@ -141,9 +139,10 @@ pub fn search(
             let l = scan(model, ctx, bodies, &chosen, b, &fine, stepper);
             (fine, l)
         } else {
-            (vec![centre], vec![coarse[argmin(&coarse, m)], own])
+            (vec![centre], vec![coarse[coarse_best], own])
         };
-        let best = fine[argmin(&fine_loss, fine.len())];
+        let fine_best = argmin(&fine_loss, fine.len());
+        let best = fine[fine_best];
         let mut s = Scan {
             best,
             ..Scan::default()
@@ -165,7 +164,7 @@ pub fn search(
             bodies[b].members.len(),
             bodies[b].omega.norm(),
             best * bodies[b].omega.norm(),
-            (fine_loss[argmin(&fine_loss, fine.len())] - own) / nv,
+            (fine_loss[fine_best] - own) / nv,
         ));
         chosen[b] = Some(best);
         scans[b] = Some(s);
@@ -190,11 +189,12 @@ pub fn refit(
     log: &mut dyn FnMut(&str),
 ) -> f64 {
     let n = model.len();
-    let mut owner = vec![usize::MAX; n];
-    for (b, body) in bodies.iter().enumerate() {
-        if chosen[b].is_some() {
+    // The spun body of each Gaussian and its multiplier (`None`: keeps its learnt motion).
+    let mut owner: Vec<Option<(&Body, f64)>> = vec![None; n];
+    for (body, s) in bodies.iter().zip(chosen) {
+        if let Some(s) = *s {
             for &i in &body.members {
-                owner[i] = b;
+                owner[i] = Some((body, s));
             }
         }
     }
@@ -232,7 +232,14 @@ pub fn refit(
         #[allow(clippy::cast_possible_truncation, reason = "a fraction")]
         let f32_ = f as f32;
         for i in 0..n {
-            if owner[i] == usize::MAX {
+            if let Some((body, s)) = owner[i] {
+                let (x, _) = body.pose(t, s, p0[i], q0[i]);
+                let (v, w) = body.velocity(t, s, x);
+                x.cast::<f32>().write_to(&mut pos[3 * i..]);
+                v.cast::<f32>().write_to(&mut target[9 * i..]);
+                w.cast::<f32>().write_to(&mut target[9 * i + 3..]);
+                Vec3::<f32>::zero().write_to(&mut target[9 * i + 6..]);
+            } else {
                 let (a, b) = (paths.means[k][i], paths.means[k + 1][i]);
                 (a + (b - a) * f64::from(f32_))
                     .cast::<f32>()
@@ -244,14 +251,6 @@ pub fn refit(
                 for c in 0..9 {
                     target[9 * i + c] = oa[c] + (ob[c] - oa[c]) * f32_;
                 }
-            } else {
-                let (body, s) = (&bodies[owner[i]], chosen[owner[i]].unwrap_or(1.0));
-                let (x, _) = body.pose(t, s, p0[i], q0[i]);
-                let (v, w) = body.velocity(t, s, x);
-                x.cast::<f32>().write_to(&mut pos[3 * i..]);
-                v.cast::<f32>().write_to(&mut target[9 * i..]);
-                w.cast::<f32>().write_to(&mut target[9 * i + 3..]);
-                Vec3::<f32>::zero().write_to(&mut target[9 * i + 6..]);
             }
         }
         #[allow(clippy::cast_possible_truncation, reason = "the field runs in f32")]
@@ -273,9 +272,8 @@ pub fn refit(
         grid.step(&adam, lr_grid * decay, &mut p[gr.clone()], &g[gr.clone()]);
         mlp.step(&adam, lr_mlp * decay, &mut p[mr.clone()], &g[mr.clone()]);
         #[allow(clippy::cast_precision_loss, reason = "a count")]
-        {
-            mse = sq / n as f64;
-        }
+        let n64 = n as f64;
+        mse = sq / n64;
         if it.is_multiple_of(100) || it == iters {
             log(&format!(
                 "spin search: field fit {it}/{iters}, mean squared output error {mse:.5}"
@@ -383,6 +381,7 @@ mod tests {
             lambda: 0.2,
             p0,
             q0,
+            log_scales: splats.log_scales.clone(),
             par: Par::Seq,
         };
         let bodies = [body_of(&splats, omega * 0.5, splats.len())];

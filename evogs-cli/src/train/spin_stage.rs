@@ -26,7 +26,6 @@ impl Trainer {
     pub fn spin_search(&mut self, log: &mut dyn FnMut(&str)) -> Vec<Option<f64>> {
         let cfg = self.cfg.spin_search.clone();
         let mut stepper = None;
-        self.model.field.set_count(self.model.len());
         let paths = Paths::record(&mut self.model, self.time_range, &mut stepper);
         let p0: Vec<Vec3<f64>> = self
             .model
@@ -66,6 +65,7 @@ impl Trainer {
             lambda,
             p0,
             q0,
+            log_scales: self.model.canonical.log_scales.clone(),
             par: self.par,
         };
         let (chosen, _) = search(&mut self.model, &ctx, &bodies, &cfg, &mut stepper, log);
@@ -75,14 +75,13 @@ impl Trainer {
                 o.grid_lr_init * self.extent,
                 o.deformation_lr_init * self.extent,
             );
-            let (p0, q0) = (ctx.p0, ctx.q0);
             refit(
                 &mut self.model,
                 &paths,
                 &bodies,
                 &chosen,
-                &p0,
-                &q0,
+                &ctx.p0,
+                &ctx.q0,
                 lr,
                 cfg.fit_iters,
                 log,
