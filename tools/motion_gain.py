@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How much of the true rigid motion a trained run reproduces (the README's "x % of the way").
 
-For each rigid body of the `toys` scene (cube, ball) the script exports the run's Gaussians at
+For each rigid body of the `toys` scene (cube and ball by default; torus on request) the script exports the run's Gaussians at
 t = 0 and at a few later times (`evogs export`), selects the Gaussians that lie inside the body
 at t = 0 (opacity > 0.2) using the ground-truth body-to-world poses of the scene's `meta.json`,
 and compares each selected Gaussian's displacement from t = 0 with the displacement the true
@@ -15,8 +15,12 @@ rigid motion gives the same point:
 Usage (numpy needed; the scene description defaults to `tools/data/toys-meta.json`, a copy of
 the `toys` scene's `meta.json`, which also covers `toys-mini`, whose times are a subset):
 
-    python3 tools/motion_gain.py RUN [--meta tools/data/toys-meta.json]
+    python3 tools/motion_gain.py RUN [--meta tools/data/toys-meta.json] [--bodies cube,ball,torus]
                                      [--evogs target/release/evogs] [--times 0.06,0.12,0.25]
+
+It also prints each body's opacity mass at t = 0 (the sum of the opacities of the Gaussians
+inside it, whatever their opacity): a body the run has lost shows as a small mass and no
+selected Gaussians.
 """
 
 import argparse
@@ -56,6 +60,8 @@ def inside(body, local):
     """Points (body frame) inside the body, with a small margin."""
     if body == "cube":
         return np.abs(local).max(1) < 0.27
+    if body == "torus":
+        return np.linalg.norm(local, axis=1) < 0.17  # outer radius 0.15
     return np.linalg.norm(local, axis=1) < 0.24  # ball, radius 0.22
 
 
@@ -66,6 +72,7 @@ def main():
     ap.add_argument("--meta", default=os.path.join(here, "data", "toys-meta.json"))
     ap.add_argument("--evogs", default="target/release/evogs")
     ap.add_argument("--times", default="0.06,0.12,0.25")
+    ap.add_argument("--bodies", default="cube,ball")
     args = ap.parse_args()
     frames = json.load(open(args.meta))["frames"]["train"]
     times = np.array([f["time"] for f in frames])
@@ -76,18 +83,24 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         p0, opacity = export(args.evogs, args.run, float(times[0]), tmp)
         homog0 = np.c_[p0, np.ones(len(p0))].T
-        bodies = ("cube", "ball")
-        sel = {}
+        bodies = args.bodies.split(",")
+        sel, mass = {}, {}
         for b in bodies:
             local = (np.linalg.inv(pose(0, b)) @ homog0).T[:, :3]
-            sel[b] = inside(b, local) & (opacity > 0.2)
+            within = inside(b, local)
+            sel[b] = within & (opacity > 0.2)
+            mass[b] = float(opacity[within].sum())
         print("Gaussians per body:", {b: int(m.sum()) for b, m in sel.items()})
+        print("opacity mass per body:", {b: round(m, 1) for b, m in mass.items()})
         for want in (float(s) for s in args.times.split(",")):
             i = int(np.argmin(np.abs(times - want)))
             p, _ = export(args.evogs, args.run, float(times[i]), tmp)
             row = []
             for b in bodies:
                 m = sel[b]
+                if not m.any():
+                    row.append("%s: no Gaussian with opacity > 0.2" % b)
+                    continue
                 moved = pose(i, b) @ np.linalg.inv(pose(0, b)) @ homog0[:, m]
                 d_gt = moved[:3].T - p0[m]
                 d_model = p[m] - p0[m]
