@@ -16,8 +16,10 @@ error instead: how much that body costs the first run against the second.
 
 Usage (numpy and Pillow needed):
 
-    python3 tools/body_error.py DIR [--other DIR2] [--data ../shared/data/toys]
-                                    [--meta tools/data/toys-meta.json]
+    python3 tools/body_error.py DIR --data TOYS [--other DIR2] [--meta tools/data/toys-meta.json]
+
+TOYS is the full `toys` dataset the run was trained on (its `test/` images and
+`transforms_test.json`); it is not shipped in the repository.
 """
 
 import argparse
@@ -39,23 +41,27 @@ def extents(meta):
     }
 
 
-def disc(meta, cams, focal, size, i, body, extent):
-    """Pixels near the projection of `body`'s centre in test frame `i` (OpenGL camera)."""
-    centre = np.array(meta["frames"]["test"][i]["objects"][body])[:3, 3]
-    cam_from_world = np.linalg.inv(np.array(cams[i]["transform_matrix"]))
+def disc(centre, cam_to_world, focal, pixels, extent):
+    """Pixels (centres `pixels` = (xx, yy)) near the projection of a body centre (OpenGL camera)."""
+    cam_from_world = np.linalg.inv(np.array(cam_to_world))
     p = cam_from_world[:3, :3] @ centre + cam_from_world[:3, 3]
     depth = -p[2]
-    w, h = size
+    xx, yy = pixels
+    h, w = xx.shape
     u, v = w / 2 + focal * p[0] / depth, h / 2 - focal * p[1] / depth
     r = (extent + 0.04) * focal / depth
-    yy, xx = np.mgrid[0:h, 0:w] + 0.5
     return (xx - u) ** 2 + (yy - v) ** 2 < r * r
 
 
-def squared_error(data, folder, i):
+def test_image(data, i):
+    """Test image `i` composited on white, in [0, 1]."""
     gt = np.asarray(Image.open(os.path.join(data, "test", "r_%03d.png" % i)).convert("RGBA"))
     gt = gt.astype(float) / 255
-    rgb = gt[..., :3] * gt[..., 3:] + (1 - gt[..., 3:])
+    return gt[..., :3] * gt[..., 3:] + (1 - gt[..., 3:])
+
+
+def squared_error(rgb, folder, i):
+    """Per-pixel squared error (mean over channels) of rendered frame `i` against `rgb`."""
     pred = np.asarray(Image.open(os.path.join(folder, "frame_%04d.png" % i)).convert("RGB"))
     return ((pred.astype(float) / 255 - rgb) ** 2).mean(-1)
 
@@ -70,7 +76,7 @@ def main():
     ap.add_argument("--other")
     here = os.path.dirname(os.path.abspath(__file__))
     ap.add_argument("--meta", default=os.path.join(here, "data", "toys-meta.json"))
-    ap.add_argument("--data", default=os.path.join(here, "..", "..", "shared", "data", "toys"))
+    ap.add_argument("--data", required=True, help="the toys dataset folder")
     args = ap.parse_args()
     meta = json.load(open(args.meta))
     transforms = json.load(open(os.path.join(args.data, "transforms_test.json")))
@@ -78,16 +84,25 @@ def main():
     ext = extents(meta)
     swapped = {b: [] for b in BODIES}
     plain = []
+    pixels = None
     for i in range(len(cams)):
-        err = squared_error(args.data, args.dir, i)
-        h, w = err.shape
-        focal = 0.5 * w / np.tan(0.5 * transforms["camera_angle_x"])
-        masks = {b: disc(meta, cams, focal, (w, h), i, b, ext[b]) for b in BODIES}
+        rgb = test_image(args.data, i)
+        err = squared_error(rgb, args.dir, i)
+        if pixels is None:
+            h, w = err.shape
+            yy, xx = np.mgrid[0:h, 0:w] + 0.5
+            pixels = (xx, yy)
+            focal = 0.5 * w / np.tan(0.5 * transforms["camera_angle_x"])
+        objects = meta["frames"]["test"][i]["objects"]
+        masks = {
+            b: disc(np.array(objects[b])[:3, 3], cams[i]["transform_matrix"], focal, pixels, ext[b])
+            for b in BODIES
+        }
         row = "frame %2d  t = %.4f  PSNR %5.2f" % (i, cams[i]["time"], psnr(err))
         row += "".join("  %s %3.0f %%" % (b, 100 * err[m].sum() / err.sum()) for b, m in masks.items())
         plain.append(psnr(err))
         if args.other:
-            other = squared_error(args.data, args.other, i)
+            other = squared_error(rgb, args.other, i)
             row += "  | other %5.2f" % psnr(other)
             for b, m in masks.items():
                 mixed = err.copy()
