@@ -98,9 +98,10 @@ def main():
             b: disc(np.array(objects[b])[:3, 3], cams[i]["transform_matrix"], focal, pixels, ext[b])
             for b in BODIES
         }
-        row = "frame %2d  t = %.4f  PSNR %5.2f" % (i, cams[i]["time"], psnr(err))
-        row += "".join("  %s %3.0f %%" % (b, 100 * err[m].sum() / err.sum()) for b, m in masks.items())
         plain.append(psnr(err))
+        row = "frame %2d  t = %.4f  PSNR %5.2f" % (i, cams[i]["time"], plain[-1])
+        total = err.sum()
+        row += "".join("  %s %3.0f %%" % (b, 100 * err[m].sum() / total) for b, m in masks.items())
         if args.other:
             other = squared_error(rgb, args.other, i)
             row += "  | other %5.2f" % psnr(other)
