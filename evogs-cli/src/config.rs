@@ -6,7 +6,7 @@
 
 use crate::field::{HexPlaneConfig, NeuralFieldConfig};
 use crate::model::{Motion, Waypoints};
-use crate::motion::SpinSearchConfig;
+use crate::motion::{OrbitSearchConfig, SpinSearchConfig};
 use serde::{Deserialize, Serialize};
 
 /// Everything a training run needs to know.
@@ -35,6 +35,8 @@ pub struct TrainConfig {
     pub schedule: ScheduleConfig,
     /// The spin search (off unless `at_iter` is set; see [`crate::motion`]).
     pub spin_search: SpinSearchConfig,
+    /// The orbit search (off unless `at_iter` is set; see [`crate::motion::orbit`]).
+    pub orbit_search: OrbitSearchConfig,
 }
 
 /// Data loading and the training protocol.
@@ -379,6 +381,7 @@ impl TrainConfig {
                 views_per_step: 1,
             },
             spin_search: SpinSearchConfig::default(),
+            orbit_search: OrbitSearchConfig::default(),
         }
     }
 
@@ -494,7 +497,8 @@ impl TrainConfig {
             (0.0..=1.0).contains(&self.loss.lambda_ssim),
             "loss.lambda_ssim must be in [0, 1]",
         )?;
-        self.spin_search.validate()
+        self.spin_search.validate()?;
+        self.orbit_search.validate()
     }
 }
 

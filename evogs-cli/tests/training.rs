@@ -296,3 +296,44 @@ fn the_spin_search_is_due_once_and_leaves_a_trainable_model() {
             .all(|a| a.means.iter().all(|m| m.is_finite()))
     );
 }
+
+#[test]
+fn the_orbit_search_is_due_once_and_leaves_a_trainable_model() {
+    let mut c = tiny_config();
+    c.orbit_search.at_iter = 50;
+    // The tiny scene's groups, whatever they are: coarse links, every radius, a small grid,
+    // and any gain taken, so that the field fit runs.
+    c.orbit_search.link = 0.2;
+    c.orbit_search.min_body = 5;
+    c.orbit_search.centre_min_body = 5;
+    c.orbit_search.max_radius = 10.0;
+    c.orbit_search.centre_max_radius = 20.0;
+    c.orbit_search.max_orbit_radius = 20.0;
+    c.orbit_search.max_speed = 1.0;
+    c.orbit_search.speed_step = 0.5;
+    c.orbit_search.horizons = vec![0.3, 1.0];
+    c.orbit_search.local_steps = 1;
+    c.orbit_search.view_stride = 8;
+    c.orbit_search.min_gain = f64::NEG_INFINITY;
+    c.orbit_search.fit_iters = 20;
+    let mut t = trainer(c);
+    let mut due = Vec::new();
+    let mut found = Vec::new();
+    while !t.finished() {
+        if t.orbit_search_due() {
+            due.push(t.iteration);
+            found = t.orbit_search(&mut |_| {});
+        }
+        t.step().expect("finite step after the search");
+    }
+    assert_eq!(due, vec![50], "due exactly once, after iteration 50");
+    assert!(!found.is_empty(), "at least one orbit taken");
+    assert!(found.iter().all(|f| f.orbit.omega.is_finite()));
+    assert!(t.model.field.params().iter().all(|v| v.is_finite()));
+    assert!(
+        t.model
+            .anchors
+            .iter()
+            .all(|a| a.means.iter().all(|m| m.is_finite()))
+    );
+}

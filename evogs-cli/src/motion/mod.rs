@@ -14,9 +14,15 @@
 //! The model of a body's motion is `x(t) = c(t) + R(s·ω·(t − t₀))(x₀ − c₀)`: its centroid
 //! path `c(t)` kept as learnt, its orientation turned at a constant rate. Bodies that do not
 //! spin (or groups too large to be one body) are left as learnt.
+//!
+//! [`orbit`] finds what the spin search cannot: a small body the learnt motion has already
+//! lost, circling a larger one (`[orbit_search]`).
 
 pub mod bodies;
+pub mod orbit;
 pub mod spin;
+
+pub use orbit::OrbitSearchConfig;
 
 use serde::{Deserialize, Serialize};
 
@@ -101,6 +107,28 @@ impl SpinSearchConfig {
             "spin_search.fine_step must be a non-negative number",
         )
     }
+}
+
+/// A small zero-initialised field for the searches' tests.
+#[cfg(test)]
+pub(crate) fn test_field() -> crate::field::NeuralField<f32> {
+    use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
+    let cfg = NeuralFieldConfig {
+        hexplane: HexPlaneConfig {
+            channels: 8,
+            resolution: [8, 8, 8, 6],
+            multires: vec![1],
+        },
+        width: 16,
+        output_scales: [1.0, 1.0, 1.0],
+        zero_init_output: true,
+        twist: false,
+    };
+    let time = TimeMapping::Normalized {
+        t_min: 0.0,
+        t_max: 1.0,
+    };
+    NeuralField::new(&cfg, [-1.0; 3], [3.0; 3], time, 4)
 }
 
 #[cfg(test)]

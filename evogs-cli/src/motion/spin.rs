@@ -27,7 +27,7 @@ pub struct Scan {
 }
 
 /// Poses the members of `body`, spun by `s`, at time `t` into `st`.
-fn place(
+pub(crate) fn place(
     st: &mut Splats<f32>,
     body: &Body,
     t: f64,
@@ -175,7 +175,10 @@ pub fn search(
 /// Sets the anchors of the spun bodies to their poses and fits the field, by velocity
 /// regression with Adam (base rates `lr_grid`, `lr_mlp`, falling to 1 %), to the spun bodies'
 /// velocities and spins (no scale rate) along their poses, and to its own learnt outputs
-/// along every other Gaussian's learnt path. Returns the final mean squared output error.
+/// along every other Gaussian's learnt path. With `jitter` > 0 the spun bodies' velocities
+/// are also taught off their poses, at points displaced by normal noise of that deviation
+/// (scene units), where an integrator's intermediate stages may look. Returns the final
+/// mean squared output error.
 #[allow(clippy::too_many_arguments, reason = "the fit's whole state")]
 pub fn refit(
     model: &mut Model<f32>,
@@ -185,7 +188,7 @@ pub fn refit(
     p0: &[Vec3<f64>],
     q0: &[Quat<f64>],
     (lr_grid, lr_mlp): (f64, f64),
-    iters: usize,
+    (iters, jitter): (usize, f64),
     log: &mut dyn FnMut(&str),
 ) -> f64 {
     let n = model.len();
@@ -233,7 +236,10 @@ pub fn refit(
         let f32_ = f as f32;
         for i in 0..n {
             if let Some((body, s)) = owner[i] {
-                let (x, _) = body.pose(t, s, p0[i], q0[i]);
+                let (mut x, _) = body.pose(t, s, p0[i], q0[i]);
+                if jitter > 0.0 {
+                    x += Vec3::new(rng.normal(), rng.normal(), rng.normal()) * jitter;
+                }
                 let (v, w) = body.velocity(t, s, x);
                 x.cast::<f32>().write_to(&mut pos[3 * i..]);
                 v.cast::<f32>().write_to(&mut target[9 * i..]);
@@ -276,7 +282,7 @@ pub fn refit(
         mse = sq / n64;
         if it.is_multiple_of(100) || it == iters {
             log(&format!(
-                "spin search: field fit {it}/{iters}, mean squared output error {mse:.5}"
+                "field fit {it}/{iters}, mean squared output error {mse:.5}"
             ));
         }
     }
@@ -286,32 +292,13 @@ pub fn refit(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
     use crate::model::{Motion, Waypoints};
     use crate::motion::bodies::GRID;
+    use crate::motion::test_field as field;
     use crate::train::step::render_options;
     use evogs_math::so3::exp_quat;
     use evogs_ode::Method;
     use evogs_splat::random_scene;
-
-    fn field() -> NeuralField<f32> {
-        let cfg = NeuralFieldConfig {
-            hexplane: HexPlaneConfig {
-                channels: 8,
-                resolution: [8, 8, 8, 6],
-                multires: vec![1],
-            },
-            width: 16,
-            output_scales: [1.0, 1.0, 1.0],
-            zero_init_output: true,
-            twist: false,
-        };
-        let time = TimeMapping::Normalized {
-            t_min: 0.0,
-            t_max: 1.0,
-        };
-        NeuralField::new(&cfg, [-1.0; 3], [3.0; 3], time, 4)
-    }
 
     /// The first `count` of `splats` as one body spinning at `omega` about its centroid.
     fn body_of(splats: &Splats<f32>, omega: Vec3<f64>, count: usize) -> Body {
@@ -445,7 +432,7 @@ mod tests {
             &p0,
             &q0,
             (0.02, 0.01),
-            600,
+            (600, 0.0),
             &mut |_| {},
         );
         assert!(mse.is_finite());

@@ -4,6 +4,7 @@ pub mod adam;
 pub mod coherence;
 pub mod densify;
 pub mod optim;
+pub mod orbit_stage;
 pub mod spin_stage;
 pub mod step;
 pub mod trainer;

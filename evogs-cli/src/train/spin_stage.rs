@@ -1,11 +1,13 @@
 //! The spin search as a stage of training (`[spin_search] at_iter`): see [`crate::motion`].
 
-use super::step::render_options;
+use super::step::{ViewData, render_options};
 use super::trainer::Trainer;
+use crate::config::TrainConfig;
 use crate::model::Motion;
 use crate::motion::bodies::{Paths, find_bodies};
 use crate::motion::spin::{SearchContext, refit, search};
-use evogs_math::{Quat, Vec3};
+use evogs_math::Par;
+use evogs_splat::Splats;
 
 impl Trainer {
     /// Whether the spin search is due before the next step: `at_iter` iterations done, the
@@ -27,21 +29,14 @@ impl Trainer {
         let cfg = self.cfg.spin_search.clone();
         let mut stepper = None;
         let paths = Paths::record(&mut self.model, self.time_range, &mut stepper);
-        let p0: Vec<Vec3<f64>> = self
-            .model
-            .canonical
-            .means
-            .iter()
-            .map(|m| m.cast())
-            .collect();
-        let q0: Vec<Quat<f64>> = self
-            .model
-            .canonical
-            .quats
-            .iter()
-            .map(|q| q.normalize().cast())
-            .collect();
-        let bodies = find_bodies(&paths, &p0, &cfg);
+        let ctx = search_context(
+            &self.views,
+            cfg.view_stride,
+            &self.model.canonical,
+            &self.cfg,
+            self.par,
+        );
+        let bodies = find_bodies(&paths, &ctx.p0, &cfg);
         for (b, body) in bodies.iter().enumerate() {
             log(&format!(
                 "spin search: body {b}: {} Gaussians ({} moving) about {:.3?}, radius {:.3}, learnt spin {:.3} rad per unit time, rigid-fit RMS {:.4}",
@@ -53,21 +48,6 @@ impl Trainer {
                 body.rigid_rms
             ));
         }
-        #[allow(clippy::cast_possible_truncation, reason = "the loss runs in f32")]
-        let lambda = self.cfg.loss.lambda_ssim as f32;
-        let ctx = SearchContext {
-            views: self.views.iter().step_by(cfg.view_stride).collect(),
-            opts: render_options(
-                self.cfg.data.background,
-                self.model.canonical.sh_degree,
-                self.par,
-            ),
-            lambda,
-            p0,
-            q0,
-            log_scales: self.model.canonical.log_scales.clone(),
-            par: self.par,
-        };
         let (chosen, _) = search(&mut self.model, &ctx, &bodies, &cfg, &mut stepper, log);
         if chosen.iter().any(Option::is_some) {
             let o = &self.cfg.optim;
@@ -83,10 +63,36 @@ impl Trainer {
                 &ctx.p0,
                 &ctx.q0,
                 lr,
-                cfg.fit_iters,
+                (cfg.fit_iters, 0.0),
                 log,
             );
         }
         chosen
+    }
+}
+
+/// The search's view of a trainer's model: every `stride`-th of `views`, the render settings
+/// and loss weight of training (`cfg`), and the canonical poses of `canonical`.
+pub(super) fn search_context<'a>(
+    views: &'a [ViewData<f32>],
+    stride: usize,
+    canonical: &Splats<f32>,
+    cfg: &TrainConfig,
+    par: Par,
+) -> SearchContext<'a> {
+    #[allow(clippy::cast_possible_truncation, reason = "the loss runs in f32")]
+    let lambda = cfg.loss.lambda_ssim as f32;
+    SearchContext {
+        views: views.iter().step_by(stride).collect(),
+        opts: render_options(cfg.data.background, canonical.sh_degree, par),
+        lambda,
+        p0: canonical.means.iter().map(|m| m.cast()).collect(),
+        q0: canonical
+            .quats
+            .iter()
+            .map(|q| q.normalize().cast())
+            .collect(),
+        log_scales: canonical.log_scales.clone(),
+        par,
     }
 }

@@ -1,0 +1,711 @@
+//! The orbit search: a small body circling another faster than gradient descent can follow.
+//!
+//! A small, fast body (in `toys`, the torus: outer radius 0.15, circling the cube at 6.1 units
+//! per unit time) leaves its own footprint within a few hundredths of the time range. Once
+//! the learnt motion misses it, no pixel links the body's Gaussians to where the body is, and
+//! photometric training fades them out (README, "The torus"). The search needs no gradient.
+//! It takes each compact group of the canonical cloud in turn as a body, and each larger group
+//! near it as the centre it may circle. The orbit model is a rigid turn about an axis through
+//! the centre `p`, perpendicular to `r = c₀ − p` (a circle about `p` through the body's
+//! centroid `c₀`):
+//!
+//! ```text
+//! x(t) = p + R(ω·(t − t₀))(x₀ − p),   ω = r × v / |r|²,   v ⊥ r
+//! ```
+//!
+//! so an orbit is fixed by the centre and the body's initial velocity `v`, two numbers in the
+//! plane perpendicular to `r`. The search is a continuation in time: a grid over `v` scored
+//! by the photometric training loss of the views up to a short horizon (where a wrong rate
+//! costs little), then finer grids around the best over longer and longer horizons.
+//! [`crate::train::trainer::Trainer::orbit_search`] runs it at `[orbit_search] at_iter` and
+//! teaches the field the orbits found ([`super::spin::refit`]).
+
+use super::bodies::{Body, GRID, Paths, components};
+use super::spin::{SearchContext, place};
+use crate::train::step::ViewData;
+use evogs_math::Par;
+use evogs_math::Vec3;
+use evogs_math::activation::sigmoid;
+use evogs_math::so3::exp_quat;
+use evogs_ode::Stepper;
+use evogs_splat::loss::photometric_loss;
+use evogs_splat::ssim::SsimWorkspace;
+use evogs_splat::{RenderOptions, Splats, TiledRasterizer, render_tiled};
+use serde::{Deserialize, Serialize};
+
+/// Settings of the orbit search (`[orbit_search]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrbitSearchConfig {
+    /// Run the search after this many iterations (0: never). It needs the dynamics on and
+    /// `velocity` motion; just after the static warm-up, before a fast body fades, is the
+    /// natural time.
+    pub at_iter: u64,
+    /// Gaussians at least this opaque enter the grouping.
+    pub min_opacity: f64,
+    /// Canonical Gaussians closer than this belong to one group.
+    pub link: f64,
+    /// Smallest group taken as a body or a centre.
+    pub min_body: usize,
+    /// Largest radius of a searched body (scene units).
+    pub max_radius: f64,
+    /// Smallest group taken as a centre.
+    pub centre_min_body: usize,
+    /// Largest radius of a centre's group.
+    pub centre_max_radius: f64,
+    /// Largest orbit radius: centres farther from a body are not tried.
+    pub max_orbit_radius: f64,
+    /// Largest initial speed tried (scene units per unit time).
+    pub max_speed: f64,
+    /// Step of the first, global velocity grid.
+    pub speed_step: f64,
+    /// Horizons of the stages, as fractions of the time range: the first is the global grid's,
+    /// each later one refines around the best with half the previous step.
+    pub horizons: Vec<f64>,
+    /// Steps either side of the best velocity in each refining stage.
+    pub local_steps: usize,
+    /// Every this-many-th training view enters the loss.
+    pub view_stride: usize,
+    /// Smallest gain (mean loss per view below the learnt motion's, over the whole range)
+    /// for an orbit to be taken.
+    pub min_gain: f64,
+    /// Adam steps of the velocity regression that teaches the field the orbits.
+    pub fit_iters: usize,
+    /// Deviation of the noise added to the positions the orbits' velocities are taught at
+    /// (scene units): an integrator's intermediate stages leave the orbit (with a step of
+    /// `h` and speed `v`, RK4's midpoint stage lies `(h·v/2)²/(2·radius)` outside it).
+    pub fit_jitter: f64,
+}
+
+impl Default for OrbitSearchConfig {
+    fn default() -> Self {
+        Self {
+            at_iter: 0,
+            min_opacity: 0.05,
+            link: 0.04,
+            min_body: 30,
+            max_radius: 0.2,
+            centre_min_body: 150,
+            centre_max_radius: 0.6,
+            max_orbit_radius: 1.0,
+            max_speed: 10.0,
+            speed_step: 1.0,
+            horizons: vec![0.06, 0.12, 0.25, 0.5, 1.0],
+            local_steps: 2,
+            view_stride: 2,
+            min_gain: 1e-4,
+            fit_iters: 1000,
+            fit_jitter: 0.05,
+        }
+    }
+}
+
+impl OrbitSearchConfig {
+    /// Checks the values for consistency.
+    ///
+    /// # Errors
+    /// A message naming the offending field.
+    pub fn validate(&self) -> Result<(), String> {
+        let chk = |ok: bool, msg: &str| if ok { Ok(()) } else { Err(msg.to_string()) };
+        let pos = |x: f64| x > 0.0 && x.is_finite();
+        chk(
+            pos(self.link)
+                && pos(self.max_radius)
+                && pos(self.centre_max_radius)
+                && pos(self.max_orbit_radius),
+            "orbit_search.link and the radii must be positive",
+        )?;
+        chk(
+            pos(self.max_speed) && pos(self.speed_step),
+            "orbit_search.max_speed and speed_step must be positive",
+        )?;
+        chk(
+            !self.horizons.is_empty() && self.horizons.iter().all(|&h| h > 0.0 && h <= 1.0),
+            "orbit_search.horizons must be a non-empty list of fractions in (0, 1]",
+        )?;
+        chk(
+            self.view_stride >= 1,
+            "orbit_search.view_stride must be at least 1",
+        )?;
+        chk(
+            self.fit_jitter >= 0.0 && self.fit_jitter.is_finite(),
+            "orbit_search.fit_jitter must be a non-negative number",
+        )
+    }
+}
+
+/// A group of the canonical cloud: its Gaussians, centroid and radius.
+#[derive(Clone, Debug)]
+pub struct Group {
+    /// Its Gaussians.
+    pub members: Vec<usize>,
+    /// Centroid.
+    pub centroid: Vec3<f64>,
+    /// Largest distance of a member from the centroid.
+    pub radius: f64,
+}
+
+/// The groups of at least `cfg.min_body` Gaussians (opacity ≥ `cfg.min_opacity`) linked
+/// within `cfg.link` at their canonical positions `p0`, largest first.
+#[must_use]
+pub fn canonical_groups(p0: &[Vec3<f64>], logits: &[f32], cfg: &OrbitSearchConfig) -> Vec<Group> {
+    let kept: Vec<usize> = (0..p0.len())
+        .filter(|&i| f64::from(sigmoid(logits[i])) >= cfg.min_opacity)
+        .collect();
+    let pts: Vec<Vec3<f64>> = kept.iter().map(|&i| p0[i]).collect();
+    let mut groups: Vec<Group> = components(&pts, cfg.link)
+        .into_iter()
+        .filter(|c| c.len() >= cfg.min_body)
+        .map(|c| {
+            let members: Vec<usize> = c.iter().map(|&j| kept[j]).collect();
+            #[allow(clippy::cast_precision_loss, reason = "a count")]
+            let inv = 1.0 / members.len() as f64;
+            let centroid = members.iter().fold(Vec3::zero(), |a, &i| a + p0[i]) * inv;
+            let radius = members
+                .iter()
+                .map(|&i| (p0[i] - centroid).norm())
+                .fold(0.0, f64::max);
+            Group {
+                members,
+                centroid,
+                radius,
+            }
+        })
+        .collect();
+    groups.sort_by_key(|g| std::cmp::Reverse(g.members.len()));
+    groups
+}
+
+/// A circular orbit: a rigid turn at angular velocity `omega` about the axis through `centre`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
+    /// A point on the axis.
+    pub centre: Vec3<f64>,
+    /// Angular velocity (world frame, radians per unit time).
+    pub omega: Vec3<f64>,
+}
+
+impl Orbit {
+    /// The orbit about `centre` that moves the point `c0` at velocity `v` (its component
+    /// along `c0 − centre` is ignored).
+    #[must_use]
+    pub fn through(c0: Vec3<f64>, centre: Vec3<f64>, v: Vec3<f64>) -> Self {
+        let r = c0 - centre;
+        Self {
+            centre,
+            omega: r.cross(v) * (1.0 / r.norm_squared()),
+        }
+    }
+
+    /// `group` moving along this orbit from `range.0` over `range` (start, length), as a
+    /// [`Body`] (its centroid path sampled on the grid), for [`place`] and the field fit.
+    #[must_use]
+    pub fn body(&self, group: &Group, range: (f64, f64)) -> Body {
+        let c0 = group.centroid;
+        let centroid = (0..=GRID)
+            .map(|k| {
+                let t = Paths::grid_time(0.0, range.1, k);
+                self.centre + exp_quat(self.omega * t).rotate(c0 - self.centre)
+            })
+            .collect();
+        Body {
+            members: group.members.clone(),
+            moving: group.members.len(),
+            c0,
+            radius: group.radius,
+            centroid,
+            omega: self.omega,
+            rigid_rms: 0.0,
+            range,
+        }
+    }
+}
+
+/// A unit vector perpendicular to `r` (not zero), and a second one perpendicular to both.
+fn plane_basis(r: Vec3<f64>) -> (Vec3<f64>, Vec3<f64>) {
+    let u = r * (1.0 / r.norm());
+    let a = if u.x.abs() < 0.9 {
+        Vec3::new(1.0, 0.0, 0.0)
+    } else {
+        Vec3::new(0.0, 1.0, 0.0)
+    };
+    let e1 = a - u * a.dot(u);
+    let e1 = e1 * (1.0 / e1.norm());
+    (e1, u.cross(e1))
+}
+
+/// Per-worker buffers of [`score`].
+#[derive(Default)]
+struct Workspace {
+    rast: TiledRasterizer<f32>,
+    ssim: SsimWorkspace<f32>,
+    probe: Splats<f32>,
+}
+
+/// Photometric loss of `view` rendered from `st` with each of `bodies` placed in turn (with
+/// no bodies, of `st` itself).
+fn losses(
+    ctx: &SearchContext<'_>,
+    view: &ViewData<f32>,
+    st: &Splats<f32>,
+    bodies: &[Body],
+    ws: &mut Workspace,
+) -> Vec<f64> {
+    let opts = RenderOptions {
+        par: Par::Seq,
+        ..ctx.opts
+    };
+    let Workspace { rast, ssim, probe } = ws;
+    let mut loss = |s: &Splats<f32>| {
+        let r = render_tiled(s, &view.camera, &opts, rast);
+        f64::from(photometric_loss(ssim, &r.raster.rgb, &view.image, ctx.lambda, Par::Seq).total)
+    };
+    if bodies.is_empty() {
+        return vec![loss(st)];
+    }
+    // Every body overwrites all of its (the same) members, so one copy serves them all.
+    probe.clone_from(st);
+    bodies
+        .iter()
+        .map(|body| {
+            place(
+                probe,
+                body,
+                view.time,
+                1.0,
+                &ctx.p0,
+                &ctx.q0,
+                &ctx.log_scales,
+            );
+            loss(probe)
+        })
+        .collect()
+}
+
+/// Mean loss per view, over the views up to `horizon` (fraction of `range`), of the model with
+/// `group` moved along each of `orbits`; last, that of the model's own motion. Returns the
+/// losses and the number of views. With `ctx.par` parallel, the orbits are shared among the
+/// threads (each renders one at a time); the sums are in view order either way.
+fn score(
+    model: &mut crate::model::Model<f32>,
+    ctx: &SearchContext<'_>,
+    group: &Group,
+    orbits: &[Orbit],
+    (range, horizon): ((f64, f64), f64),
+    stepper: &mut Option<Stepper<f32>>,
+) -> (Vec<f64>, usize) {
+    let mut st = Splats::default();
+    let bodies: Vec<Body> = orbits.iter().map(|o| o.body(group, range)).collect();
+    let workers = match ctx.par {
+        Par::Seq => 1,
+        #[cfg(feature = "rayon")]
+        Par::Rayon => rayon::current_num_threads().max(1),
+    };
+    let mut ws: Vec<Workspace> = (0..workers).map(|_| Workspace::default()).collect();
+    let chunk = bodies.len().div_ceil(workers);
+    let mut total = vec![0.0; bodies.len() + 1];
+    let mut count = 0usize;
+    for v in ctx
+        .views
+        .iter()
+        .filter(|v| v.time - range.0 <= horizon * range.1)
+    {
+        count += 1;
+        model.splats_at(v.time, stepper, &mut st);
+        // Last, the model's own motion.
+        total[bodies.len()] += losses(ctx, v, &st, &[], &mut ws[0])[0];
+        let per: Vec<Vec<f64>> = match ctx.par {
+            Par::Seq => vec![losses(ctx, v, &st, &bodies, &mut ws[0])],
+            #[cfg(feature = "rayon")]
+            Par::Rayon => {
+                use rayon::prelude::*;
+                bodies
+                    .par_chunks(chunk)
+                    .zip(ws.par_iter_mut())
+                    .map(|(b, w)| losses(ctx, v, &st, b, w))
+                    .collect()
+            }
+        };
+        for (t, l) in total.iter_mut().zip(per.iter().flatten()) {
+            *t += l;
+        }
+    }
+    #[allow(clippy::cast_precision_loss, reason = "a count")]
+    let inv = 1.0 / count.max(1) as f64;
+    (total.into_iter().map(|l| l * inv).collect(), count)
+}
+
+/// One body's search: the centre and velocity chosen, and the gain.
+#[derive(Clone, Debug)]
+pub struct Found {
+    /// The body's group.
+    pub group: Group,
+    /// The orbit chosen.
+    pub orbit: Orbit,
+    /// Initial speed of its centroid.
+    pub speed: f64,
+    /// Mean loss per view below the model's own motion, over the whole range.
+    pub gain: f64,
+}
+
+/// Searches every group of `groups` small enough to be a body (radius ≤ `cfg.max_radius`) for
+/// an orbit about a larger group's centroid, over the training range `range` (start, length).
+/// Returns the orbits whose gain over the whole range is at least `cfg.min_gain`.
+pub fn search(
+    model: &mut crate::model::Model<f32>,
+    ctx: &SearchContext<'_>,
+    groups: &[Group],
+    range: (f64, f64),
+    cfg: &OrbitSearchConfig,
+    stepper: &mut Option<Stepper<f32>>,
+    log: &mut dyn FnMut(&str),
+) -> Vec<Found> {
+    let mut found = Vec::new();
+    let argmin = |l: &[f64]| {
+        (0..l.len() - 1)
+            .min_by(|&i, &j| l[i].total_cmp(&l[j]))
+            .unwrap_or(0)
+    };
+    for (b, group) in groups.iter().enumerate() {
+        if group.radius > cfg.max_radius {
+            continue;
+        }
+        let centres: Vec<Vec3<f64>> = groups
+            .iter()
+            .enumerate()
+            .filter(|&(c, g)| {
+                c != b
+                    && g.members.len() >= cfg.centre_min_body
+                    && g.radius <= cfg.centre_max_radius
+                    && g.radius > group.radius
+                    && (g.centroid - group.centroid).norm() <= cfg.max_orbit_radius
+            })
+            .map(|(_, g)| g.centroid)
+            .collect();
+        if centres.is_empty() {
+            continue;
+        }
+        log(&format!(
+            "orbit search: group {b} ({} Gaussians, radius {:.3}) at {:.3?}, {} centres",
+            group.members.len(),
+            group.radius,
+            group.centroid.to_array(),
+            centres.len()
+        ));
+        // The global grid over every centre, at the first horizon.
+        let mut orbits = Vec::new();
+        #[allow(clippy::cast_possible_truncation, reason = "a small grid")]
+        let k = (cfg.max_speed / cfg.speed_step).floor() as i64;
+        for &p in &centres {
+            let (e1, e2) = plane_basis(group.centroid - p);
+            for a in -k..=k {
+                for c in -k..=k {
+                    #[allow(clippy::cast_precision_loss, reason = "small integers")]
+                    let v = (e1 * a as f64 + e2 * c as f64) * cfg.speed_step;
+                    if v.norm() <= cfg.max_speed + 1e-9 {
+                        orbits.push(Orbit::through(group.centroid, p, v));
+                    }
+                }
+            }
+        }
+        let (l, views) = score(
+            model,
+            ctx,
+            group,
+            &orbits,
+            (range, cfg.horizons[0]),
+            stepper,
+        );
+        let mut best = orbits[argmin(&l)];
+        let velocity = |o: &Orbit| o.omega.cross(group.centroid - o.centre);
+        log(&format!(
+            "orbit search: group {b}: {} orbits about {} centres over {views} views to {:.2}: best about {:.3?}, speed {:.3}, {:+.2e} per view",
+            orbits.len(),
+            centres.len(),
+            cfg.horizons[0],
+            best.centre.to_array(),
+            velocity(&best).norm(),
+            l[argmin(&l)] - l[orbits.len()],
+        ));
+        if velocity(&best).norm() < 1e-12 {
+            continue;
+        }
+        let mut step = cfg.speed_step;
+        let mut gain = 0.0;
+        for &h in &cfg.horizons[1..] {
+            step *= 0.5;
+            let (e1, e2) = plane_basis(group.centroid - best.centre);
+            let v0 = velocity(&best);
+            #[allow(clippy::cast_possible_wrap, reason = "a few steps")]
+            let m = cfg.local_steps as i64;
+            let mut local = Vec::new();
+            for a in -m..=m {
+                for c in -m..=m {
+                    #[allow(clippy::cast_precision_loss, reason = "small integers")]
+                    let v = v0 + (e1 * a as f64 + e2 * c as f64) * step;
+                    local.push(Orbit::through(group.centroid, best.centre, v));
+                }
+            }
+            let (l, views) = score(model, ctx, group, &local, (range, h), stepper);
+            let j = argmin(&l);
+            best = local[j];
+            gain = l[local.len()] - l[j];
+            log(&format!(
+                "orbit search: group {b}: horizon {h:.2} ({views} views), step {step:.4}: speed {:.3}, |ω| {:.3}, {:+.2e} per view",
+                velocity(&best).norm(),
+                best.omega.norm(),
+                -gain
+            ));
+        }
+        if cfg.horizons.len() == 1 {
+            gain = l[orbits.len()] - l[argmin(&l)];
+        }
+        let speed = velocity(&best).norm();
+        if gain >= cfg.min_gain {
+            log(&format!(
+                "orbit search: group {b}: orbit about {:.3?}, radius {:.3}, axis {:.3?}, {:.3} rad per unit time, gain {gain:.2e} per view",
+                best.centre.to_array(),
+                (group.centroid - best.centre).norm(),
+                (best.omega * (1.0 / best.omega.norm())).to_array(),
+                best.omega.norm(),
+            ));
+            found.push(Found {
+                group: group.clone(),
+                orbit: best,
+                speed,
+                gain,
+            });
+        }
+    }
+    found
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::TrainConfig;
+    use crate::model::{Model, Motion, Waypoints};
+    use crate::motion::test_field;
+    use crate::train::step::render_options;
+    use evogs_math::Quat;
+    use evogs_ode::Method;
+    use evogs_splat::random_scene;
+
+    /// A scene of two groups: 200 Gaussians in a ball of radius 0.3 about the origin and 60 in
+    /// a ball of radius 0.06 about (0.6, 0, 0), and a camera on the +z axis.
+    fn two_groups() -> (Splats<f32>, evogs_splat::PinholeCamera<f32>) {
+        let (mut s, cam) = random_scene::<f32>(260, 48, 3, [0.02, 0.05], [0.7, 0.9]);
+        for (i, m) in s.means.iter_mut().enumerate() {
+            let (c, r) = if i < 200 {
+                (Vec3::zero(), 0.3)
+            } else {
+                (Vec3::new(0.6, 0.0, 0.0), 0.06)
+            };
+            // The uniform cube [−0.5, 0.5]³ shrunk to fit inside the ball.
+            *m = (c + m.cast::<f64>() * (r / 0.87)).cast();
+        }
+        (s, cam)
+    }
+
+    fn cfg() -> OrbitSearchConfig {
+        OrbitSearchConfig {
+            min_body: 20,
+            link: 0.15,
+            max_radius: 0.15,
+            centre_min_body: 100,
+            centre_max_radius: 0.5,
+            max_speed: 4.0,
+            speed_step: 0.5,
+            horizons: vec![0.15, 0.3, 0.6],
+            view_stride: 1,
+            min_gain: 0.0,
+            ..OrbitSearchConfig::default()
+        }
+    }
+
+    #[test]
+    fn an_orbit_turns_its_body_rigidly_about_the_centre() {
+        let (c0, centre, v) = (
+            Vec3::new(0.6, 0.1, -0.2),
+            Vec3::new(0.1, 0.0, 0.3),
+            Vec3::new(0.3, 2.0, -1.0),
+        );
+        let o = Orbit::through(c0, centre, v);
+        let r = c0 - centre;
+        // The velocity at c0 is v's part perpendicular to r; the axis is perpendicular to r.
+        let v_perp = v - r * (v.dot(r) / r.norm_squared());
+        assert!((o.omega.cross(r) - v_perp).norm() < 1e-12);
+        assert!(o.omega.dot(r).abs() < 1e-12);
+        let group = Group {
+            members: vec![0, 1],
+            centroid: c0,
+            radius: 0.1,
+        };
+        let body = o.body(&group, (0.25, 2.0));
+        let (p0, q0) = (
+            c0 + Vec3::new(0.05, -0.02, 0.0),
+            Quat::new(0.8, 0.6, 0.0, 0.0),
+        );
+        for k in [0, 7, 32] {
+            let t = Paths::grid_time(0.25, 2.0, k);
+            let turn = exp_quat(o.omega * (t - 0.25));
+            let (x, q) = body.pose(t, 1.0, p0, q0);
+            // At the grid times the pose is exact: distances to the centre are kept.
+            assert!(
+                (x - (centre + turn.rotate(p0 - centre))).norm() < 1e-12,
+                "{k}"
+            );
+            assert!(((x - centre).norm() - (p0 - centre).norm()).abs() < 1e-12);
+            assert!((q.dot(turn.mul_quat(q0)) - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn the_search_finds_the_orbit_the_views_show() {
+        let (splats, camera) = two_groups();
+        let (p0, q0): (Vec<Vec3<f64>>, Vec<Quat<f64>>) = (
+            splats.means.iter().map(|m| m.cast()).collect(),
+            splats.quats.iter().map(|q| q.normalize().cast()).collect(),
+        );
+        let groups = canonical_groups(&p0, &splats.opacity_logits, &cfg());
+        assert_eq!(
+            groups.iter().map(|g| g.members.len()).collect::<Vec<_>>(),
+            vec![200, 60]
+        );
+        // The small group circles the large one's centroid at 4 rad per unit time about z.
+        let (centre, omega) = (groups[0].centroid, Vec3::new(0.0, 0.0, 4.0));
+        let opts = render_options([1.0; 3], splats.sh_degree, Par::Seq);
+        let mut rast = TiledRasterizer::new();
+        // Every other view from the side, so that motion in depth shows too.
+        let side = evogs_splat::PinholeCamera::look_at(
+            Vec3::new(0.0, -4.0, 1.0),
+            Vec3::zero(),
+            Vec3::new(0.0, 0.0, 1.0),
+            40.0_f64.to_radians(),
+            48,
+            48,
+        )
+        .expect("a valid camera");
+        let views: Vec<ViewData<f32>> = (1..=12)
+            .map(|k| {
+                let time = f64::from(k) * 0.05;
+                let camera = if k % 2 == 0 { camera } else { side };
+                let mut st = splats.clone();
+                let turn = exp_quat(omega * time);
+                for i in 200..260 {
+                    st.means[i] = (centre + turn.rotate(p0[i] - centre)).cast();
+                    st.quats[i] = turn.mul_quat(q0[i]).cast();
+                }
+                let image = render_tiled(&st, &camera, &opts, &mut rast)
+                    .raster
+                    .rgb
+                    .clone();
+                ViewData {
+                    camera,
+                    time,
+                    image,
+                }
+            })
+            .collect();
+        let mut model = Model::new(
+            splats.clone(),
+            test_field(),
+            Motion::Static,
+            Waypoints::Off,
+            Method::Rk4,
+            0.25,
+            vec![0.0],
+        );
+        let mut ctx = SearchContext {
+            views: views.iter().collect(),
+            opts,
+            lambda: 0.2,
+            p0,
+            q0,
+            log_scales: splats.log_scales.clone(),
+            par: Par::Seq,
+        };
+        let mut lines = Vec::new();
+        let found = search(
+            &mut model,
+            &ctx,
+            &groups,
+            (0.0, 1.0),
+            &cfg(),
+            &mut None,
+            &mut |m| lines.push(m.to_string()),
+        );
+        assert_eq!(found.len(), 1, "{lines:#?}");
+        let f = &found[0];
+        assert_eq!(f.group.members.len(), 60);
+        assert!((f.orbit.centre - centre).norm() < 1e-12);
+        // The last stage's step is 0.125 in speed, 0.21 rad per unit time at radius 0.6.
+        assert!((f.orbit.omega - omega).norm() < 0.25, "{lines:#?}");
+        assert!(f.gain > 0.0 && (f.speed - 2.4).abs() < 0.15, "{f:?}");
+        // With the groups' roles taken by a radius limit below the small group's, nothing
+        // is searched.
+        let none = search(
+            &mut model,
+            &ctx,
+            &groups,
+            (0.0, 1.0),
+            &OrbitSearchConfig {
+                max_radius: groups[1].radius * 0.5,
+                ..cfg()
+            },
+            &mut None,
+            &mut |_| {},
+        );
+        assert!(none.is_empty());
+        // Scored in parallel, the losses are bitwise those of the sequential scan.
+        #[cfg(feature = "rayon")]
+        {
+            let orbits = [
+                f.orbit,
+                Orbit::through(f.group.centroid, centre, Vec3::new(0.0, 1.0, 0.0)),
+            ];
+            let seq = score(
+                &mut model,
+                &ctx,
+                &f.group,
+                &orbits,
+                ((0.0, 1.0), 0.6),
+                &mut None,
+            );
+            ctx.par = Par::Rayon;
+            let par = score(
+                &mut model,
+                &ctx,
+                &f.group,
+                &orbits,
+                ((0.0, 1.0), 0.6),
+                &mut None,
+            );
+            assert_eq!(seq, par);
+        }
+    }
+
+    #[test]
+    fn bad_settings_are_rejected_and_old_runs_read_with_it_off() {
+        let c = TrainConfig::fast();
+        for bad in [
+            "view_stride = 0",
+            "horizons = []",
+            "horizons = [0.0]",
+            "speed_step = 0.0",
+            "link = -1.0",
+        ] {
+            let c = c
+                .merge_toml(&format!("[orbit_search]\n{bad}\n"))
+                .expect("parses");
+            assert!(c.validate().is_err(), "orbit_search.{bad} rejected");
+        }
+        let mut text: toml::Value = toml::from_str(&c.to_toml()).expect("toml");
+        let table = text.as_table_mut().expect("a table");
+        assert!(table.remove("orbit_search").is_some(), "fast writes it");
+        let old =
+            TrainConfig::from_run_toml(&toml::to_string(&text).expect("toml")).expect("reads");
+        assert_eq!(old.orbit_search, OrbitSearchConfig::default());
+        assert_eq!(old.orbit_search.at_iter, 0, "off");
+    }
+}
