@@ -66,8 +66,8 @@ pub struct OrbitSearchConfig {
     pub local_steps: usize,
     /// Every this-many-th training view enters the loss.
     pub view_stride: usize,
-    /// Smallest gain (mean loss per view below the learnt motion's, over the whole range)
-    /// for an orbit to be taken.
+    /// Smallest gain (mean loss per view below the learnt motion's, over the views to the
+    /// last horizon) for an orbit to be taken.
     pub min_gain: f64,
     /// Adam steps of the velocity regression that teaches the field the orbits.
     pub fit_iters: usize,
@@ -344,13 +344,14 @@ pub struct Found {
     pub orbit: Orbit,
     /// Initial speed of its centroid.
     pub speed: f64,
-    /// Mean loss per view below the model's own motion, over the whole range.
+    /// Mean loss per view below the model's own motion, over the views to the last horizon.
     pub gain: f64,
 }
 
 /// Searches every group of `groups` small enough to be a body (radius ≤ `cfg.max_radius`) for
 /// an orbit about a larger group's centroid, over the training range `range` (start, length).
-/// Returns the orbits whose gain over the whole range is at least `cfg.min_gain`.
+/// Returns the orbits whose gain over the last horizon (`cfg.horizons`) is at least
+/// `cfg.min_gain`. A body whose best first-horizon velocity is zero is left as learnt.
 pub fn search(
     model: &mut crate::model::Model<f32>,
     ctx: &SearchContext<'_>,
