@@ -20,6 +20,7 @@
 //! [`crate::train::trainer::Trainer::orbit_search`] runs it at `[orbit_search] at_iter` and
 //! teaches the field the orbits found ([`super::spin::refit`]).
 
+use super::OrbitSearchConfig;
 use super::bodies::{Body, GRID, Paths, components};
 use super::spin::{SearchContext, place};
 use crate::train::step::ViewData;
@@ -31,108 +32,6 @@ use evogs_ode::Stepper;
 use evogs_splat::loss::photometric_loss;
 use evogs_splat::ssim::SsimWorkspace;
 use evogs_splat::{RenderOptions, Splats, TiledRasterizer, render_tiled};
-use serde::{Deserialize, Serialize};
-
-/// Settings of the orbit search (`[orbit_search]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct OrbitSearchConfig {
-    /// Run the search after this many iterations (0: never). It needs the dynamics on and
-    /// `velocity` motion; just after the static warm-up, before a fast body fades, is the
-    /// natural time.
-    pub at_iter: u64,
-    /// Gaussians at least this opaque enter the grouping.
-    pub min_opacity: f64,
-    /// Canonical Gaussians closer than this belong to one group.
-    pub link: f64,
-    /// Smallest group taken as a body or a centre.
-    pub min_body: usize,
-    /// Largest radius of a searched body (scene units).
-    pub max_radius: f64,
-    /// Smallest group taken as a centre.
-    pub centre_min_body: usize,
-    /// Largest radius of a centre's group.
-    pub centre_max_radius: f64,
-    /// Largest orbit radius: centres farther from a body are not tried.
-    pub max_orbit_radius: f64,
-    /// Largest initial speed tried (scene units per unit time).
-    pub max_speed: f64,
-    /// Step of the first, global velocity grid.
-    pub speed_step: f64,
-    /// Horizons of the stages, as fractions of the time range: the first is the global grid's,
-    /// each later one refines around the best with half the previous step.
-    pub horizons: Vec<f64>,
-    /// Steps either side of the best velocity in each refining stage.
-    pub local_steps: usize,
-    /// Every this-many-th training view enters the loss.
-    pub view_stride: usize,
-    /// Smallest gain (mean loss per view below the learnt motion's, over the views to the
-    /// last horizon) for an orbit to be taken.
-    pub min_gain: f64,
-    /// Adam steps of the velocity regression that teaches the field the orbits.
-    pub fit_iters: usize,
-    /// Deviation of the noise added to the positions the orbits' velocities are taught at
-    /// (scene units): an integrator's intermediate stages leave the orbit (with a step of
-    /// `h` and speed `v`, RK4's midpoint stage lies `(h·v/2)²/(2·radius)` outside it).
-    pub fit_jitter: f64,
-}
-
-impl Default for OrbitSearchConfig {
-    fn default() -> Self {
-        Self {
-            at_iter: 0,
-            min_opacity: 0.05,
-            link: 0.04,
-            min_body: 30,
-            max_radius: 0.2,
-            centre_min_body: 150,
-            centre_max_radius: 0.6,
-            max_orbit_radius: 1.0,
-            max_speed: 10.0,
-            speed_step: 1.0,
-            horizons: vec![0.06, 0.12, 0.25, 0.5, 1.0],
-            local_steps: 2,
-            view_stride: 2,
-            min_gain: 1e-4,
-            fit_iters: 1000,
-            fit_jitter: 0.05,
-        }
-    }
-}
-
-impl OrbitSearchConfig {
-    /// Checks the values for consistency.
-    ///
-    /// # Errors
-    /// A message naming the offending field.
-    pub fn validate(&self) -> Result<(), String> {
-        let chk = |ok: bool, msg: &str| if ok { Ok(()) } else { Err(msg.to_string()) };
-        let pos = |x: f64| x > 0.0 && x.is_finite();
-        chk(
-            pos(self.link)
-                && pos(self.max_radius)
-                && pos(self.centre_max_radius)
-                && pos(self.max_orbit_radius),
-            "orbit_search.link and the radii must be positive",
-        )?;
-        chk(
-            pos(self.max_speed) && pos(self.speed_step),
-            "orbit_search.max_speed and speed_step must be positive",
-        )?;
-        chk(
-            !self.horizons.is_empty() && self.horizons.iter().all(|&h| h > 0.0 && h <= 1.0),
-            "orbit_search.horizons must be a non-empty list of fractions in (0, 1]",
-        )?;
-        chk(
-            self.view_stride >= 1,
-            "orbit_search.view_stride must be at least 1",
-        )?;
-        chk(
-            self.fit_jitter >= 0.0 && self.fit_jitter.is_finite(),
-            "orbit_search.fit_jitter must be a non-negative number",
-        )
-    }
-}
 
 /// A group of the canonical cloud: its Gaussians, centroid and radius.
 #[derive(Clone, Debug)]
@@ -484,7 +383,6 @@ pub fn search(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::TrainConfig;
     use crate::model::{Model, Motion, Waypoints};
     use crate::motion::test_field;
     use crate::train::step::render_options;
@@ -684,29 +582,5 @@ mod tests {
             );
             assert_eq!(seq, par);
         }
-    }
-
-    #[test]
-    fn bad_settings_are_rejected_and_old_runs_read_with_it_off() {
-        let c = TrainConfig::fast();
-        for bad in [
-            "view_stride = 0",
-            "horizons = []",
-            "horizons = [0.0]",
-            "speed_step = 0.0",
-            "link = -1.0",
-        ] {
-            let c = c
-                .merge_toml(&format!("[orbit_search]\n{bad}\n"))
-                .expect("parses");
-            assert!(c.validate().is_err(), "orbit_search.{bad} rejected");
-        }
-        let mut text: toml::Value = toml::from_str(&c.to_toml()).expect("toml");
-        let table = text.as_table_mut().expect("a table");
-        assert!(table.remove("orbit_search").is_some(), "fast writes it");
-        let old =
-            TrainConfig::from_run_toml(&toml::to_string(&text).expect("toml")).expect("reads");
-        assert_eq!(old.orbit_search, OrbitSearchConfig::default());
-        assert_eq!(old.orbit_search.at_iter, 0, "off");
     }
 }
