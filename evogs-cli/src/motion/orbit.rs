@@ -97,7 +97,7 @@ impl Orbit {
     }
 
     /// `group` moving along this orbit from `range.0` over `range` (start, length), as a
-    /// [`Body`] (its centroid path sampled on the grid), for [`place`] and the field fit.
+    /// [`Body`] (its centroid path sampled on the grid), for placing its members and for the field fit.
     #[must_use]
     pub fn body(&self, group: &Group, range: (f64, f64)) -> Body {
         let c0 = group.centroid;
