@@ -221,8 +221,8 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         Trainer::new(cfg.clone(), views, pts).map_err(CommandError::from_display)?
     };
     t.cfg.schedule.iterations = cfg.schedule.iterations;
-    // Like the iteration count, the spin and orbit searches are read from RUN/config.toml on resume, so a
-    // stored run can be given one.
+    // Like the iteration count, the spin and orbit searches are read from RUN/config.toml on
+    // resume, so a stored run can be given one.
     t.cfg.spin_search = cfg.spin_search.clone();
     t.cfg.orbit_search = cfg.orbit_search.clone();
     rep.start("train", t.cfg.schedule.iterations);

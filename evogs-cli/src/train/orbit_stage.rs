@@ -7,6 +7,7 @@ use crate::model::Motion;
 use crate::motion::bodies::Paths;
 use crate::motion::orbit::{Found, canonical_groups, search};
 use crate::motion::spin::refit;
+use std::time::Instant;
 
 impl Trainer {
     /// Whether the orbit search is due before the next step: `at_iter` iterations done, the
@@ -26,6 +27,7 @@ impl Trainer {
     /// motion) and sets their anchors. Progress and results go to `log`.
     pub fn orbit_search(&mut self, log: &mut dyn FnMut(&str)) -> Vec<Found> {
         let cfg = self.cfg.orbit_search.clone();
+        let start = Instant::now();
         let mut stepper = None;
         let paths = Paths::record(&mut self.model, self.time_range, &mut stepper);
         let ctx = search_context(
@@ -76,6 +78,11 @@ impl Trainer {
                 log,
             );
         }
+        log(&format!(
+            "orbit search: {} orbits taken in {:.0} s",
+            found.len(),
+            start.elapsed().as_secs_f64()
+        ));
         found
     }
 }
