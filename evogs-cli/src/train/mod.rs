@@ -5,6 +5,7 @@ pub mod coherence;
 pub mod densify;
 pub mod optim;
 pub mod orbit_stage;
+mod search_stage;
 pub mod spin_stage;
 pub mod step;
 pub mod trainer;

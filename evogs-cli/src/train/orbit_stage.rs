@@ -1,9 +1,8 @@
 //! The orbit search as a stage of training (`[orbit_search] at_iter`): see
 //! [`crate::motion::orbit`].
 
-use super::spin_stage::search_context;
+use super::search_stage::search_context;
 use super::trainer::Trainer;
-use crate::model::Motion;
 use crate::motion::bodies::Paths;
 use crate::motion::orbit::{Found, canonical_groups, search};
 use crate::motion::spin::refit;
@@ -14,11 +13,7 @@ impl Trainer {
     /// dynamics on, `velocity` motion.
     #[must_use]
     pub fn orbit_search_due(&self) -> bool {
-        let at = self.cfg.orbit_search.at_iter;
-        at > 0
-            && self.iteration == at
-            && self.model.dynamics_active
-            && self.model.motion == Motion::Velocity
+        self.search_due(self.cfg.orbit_search.at_iter)
     }
 
     /// Runs the orbit search on the current model: groups the canonical cloud, searches each
@@ -29,7 +24,6 @@ impl Trainer {
         let cfg = self.cfg.orbit_search.clone();
         let start = Instant::now();
         let mut stepper = None;
-        let paths = Paths::record(&mut self.model, self.time_range, &mut stepper);
         let ctx = search_context(
             &self.views,
             cfg.view_stride,
@@ -57,15 +51,14 @@ impl Trainer {
             log,
         );
         if !found.is_empty() {
+            // The search leaves the model as it was, so the learnt paths the fit keeps for
+            // every other Gaussian are sampled only when there is a fit.
+            let paths = Paths::record(&mut self.model, self.time_range, &mut stepper);
             let bodies: Vec<_> = found
                 .iter()
                 .map(|f| f.orbit.body(&f.group, range))
                 .collect();
-            let o = &self.cfg.optim;
-            let lr = (
-                o.grid_lr_init * self.extent,
-                o.deformation_lr_init * self.extent,
-            );
+            let lr = self.refit_rates();
             refit(
                 &mut self.model,
                 &paths,

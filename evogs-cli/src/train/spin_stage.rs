@@ -1,24 +1,16 @@
 //! The spin search as a stage of training (`[spin_search] at_iter`): see [`crate::motion`].
 
-use super::step::{ViewData, render_options};
+use super::search_stage::search_context;
 use super::trainer::Trainer;
-use crate::config::TrainConfig;
-use crate::model::Motion;
 use crate::motion::bodies::{Paths, find_bodies};
-use crate::motion::spin::{SearchContext, refit, search};
-use evogs_math::Par;
-use evogs_splat::Splats;
+use crate::motion::spin::{refit, search};
 
 impl Trainer {
     /// Whether the spin search is due before the next step: `at_iter` iterations done, the
     /// dynamics on, `velocity` motion.
     #[must_use]
     pub fn spin_search_due(&self) -> bool {
-        let at = self.cfg.spin_search.at_iter;
-        at > 0
-            && self.iteration == at
-            && self.model.dynamics_active
-            && self.model.motion == Motion::Velocity
+        self.search_due(self.cfg.spin_search.at_iter)
     }
 
     /// Runs the spin search on the current model: finds the bodies in the learnt motion,
@@ -50,11 +42,7 @@ impl Trainer {
         }
         let (chosen, _) = search(&mut self.model, &ctx, &bodies, &cfg, &mut stepper, log);
         if chosen.iter().any(Option::is_some) {
-            let o = &self.cfg.optim;
-            let lr = (
-                o.grid_lr_init * self.extent,
-                o.deformation_lr_init * self.extent,
-            );
+            let lr = self.refit_rates();
             refit(
                 &mut self.model,
                 &paths,
@@ -68,31 +56,5 @@ impl Trainer {
             );
         }
         chosen
-    }
-}
-
-/// The search's view of a trainer's model: every `stride`-th of `views`, the render settings
-/// and loss weight of training (`cfg`), and the canonical poses of `canonical`.
-pub(super) fn search_context<'a>(
-    views: &'a [ViewData<f32>],
-    stride: usize,
-    canonical: &Splats<f32>,
-    cfg: &TrainConfig,
-    par: Par,
-) -> SearchContext<'a> {
-    #[allow(clippy::cast_possible_truncation, reason = "the loss runs in f32")]
-    let lambda = cfg.loss.lambda_ssim as f32;
-    SearchContext {
-        views: views.iter().step_by(stride).collect(),
-        opts: render_options(cfg.data.background, canonical.sh_degree, par),
-        lambda,
-        p0: canonical.means.iter().map(|m| m.cast()).collect(),
-        q0: canonical
-            .quats
-            .iter()
-            .map(|q| q.normalize().cast())
-            .collect(),
-        log_scales: canonical.log_scales.clone(),
-        par,
     }
 }
