@@ -21,6 +21,8 @@
 pub mod bodies;
 pub mod orbit;
 pub mod spin;
+#[cfg(test)]
+pub(crate) mod test_support;
 
 use serde::{Deserialize, Serialize};
 
@@ -206,28 +208,6 @@ impl OrbitSearchConfig {
             "orbit_search.fit_jitter must be a non-negative number",
         )
     }
-}
-
-/// A small zero-initialised field for the searches' tests.
-#[cfg(test)]
-pub(crate) fn test_field() -> crate::field::NeuralField<f32> {
-    use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
-    let cfg = NeuralFieldConfig {
-        hexplane: HexPlaneConfig {
-            channels: 8,
-            resolution: [8, 8, 8, 6],
-            multires: vec![1],
-        },
-        width: 16,
-        output_scales: [1.0, 1.0, 1.0],
-        zero_init_output: true,
-        twist: false,
-    };
-    let time = TimeMapping::Normalized {
-        t_min: 0.0,
-        t_max: 1.0,
-    };
-    NeuralField::new(&cfg, [-1.0; 3], [3.0; 3], time, 4)
 }
 
 #[cfg(test)]

@@ -133,6 +133,21 @@ fn plane_basis(r: Vec3<f64>) -> (Vec3<f64>, Vec3<f64>) {
     (e1, u.cross(e1))
 }
 
+/// The velocities `v0 + (a·e₁ + c·e₂)·step`, `a, c ∈ −k..=k`, in the plane perpendicular to
+/// `r` (basis of [`plane_basis`]).
+fn velocity_grid(
+    v0: Vec3<f64>,
+    r: Vec3<f64>,
+    step: f64,
+    k: i64,
+) -> impl Iterator<Item = Vec3<f64>> {
+    let (e1, e2) = plane_basis(r);
+    (-k..=k).flat_map(move |a| {
+        #[allow(clippy::cast_precision_loss, reason = "small integers")]
+        (-k..=k).map(move |c| v0 + (e1 * a as f64 + e2 * c as f64) * step)
+    })
+}
+
 /// Per-worker buffers of [`score`].
 #[derive(Default)]
 struct Workspace {
@@ -293,21 +308,16 @@ pub fn search(
             centres.len()
         ));
         // The global grid over every centre, at the first horizon.
-        let mut orbits = Vec::new();
         #[allow(clippy::cast_possible_truncation, reason = "a small grid")]
         let k = (cfg.max_speed / cfg.speed_step).floor() as i64;
-        for &p in &centres {
-            let (e1, e2) = plane_basis(group.centroid - p);
-            for a in -k..=k {
-                for c in -k..=k {
-                    #[allow(clippy::cast_precision_loss, reason = "small integers")]
-                    let v = (e1 * a as f64 + e2 * c as f64) * cfg.speed_step;
-                    if v.norm() <= cfg.max_speed + 1e-9 {
-                        orbits.push(Orbit::through(group.centroid, p, v));
-                    }
-                }
-            }
-        }
+        let orbits: Vec<Orbit> = centres
+            .iter()
+            .flat_map(|&p| {
+                velocity_grid(Vec3::zero(), group.centroid - p, cfg.speed_step, k)
+                    .filter(|v| v.norm() <= cfg.max_speed + 1e-9)
+                    .map(move |v| Orbit::through(group.centroid, p, v))
+            })
+            .collect();
         let (l, views) = score(
             model,
             ctx,
@@ -317,6 +327,7 @@ pub fn search(
             stepper,
         );
         let mut best = orbits[argmin(&l)];
+        let mut gain = l[orbits.len()] - l[argmin(&l)];
         let velocity = |o: &Orbit| o.omega.cross(group.centroid - o.centre);
         log(&format!(
             "orbit search: group {b}: {} orbits about {} centres over {views} views to {:.2}: best about {:.3?}, speed {:.3}, {:+.2e} per view",
@@ -325,27 +336,20 @@ pub fn search(
             cfg.horizons[0],
             best.centre.to_array(),
             velocity(&best).norm(),
-            l[argmin(&l)] - l[orbits.len()],
+            -gain,
         ));
         if velocity(&best).norm() < 1e-12 {
             continue;
         }
         let mut step = cfg.speed_step;
-        let mut gain = 0.0;
         for &h in &cfg.horizons[1..] {
             step *= 0.5;
-            let (e1, e2) = plane_basis(group.centroid - best.centre);
-            let v0 = velocity(&best);
             #[allow(clippy::cast_possible_wrap, reason = "a few steps")]
             let m = cfg.local_steps as i64;
-            let mut local = Vec::new();
-            for a in -m..=m {
-                for c in -m..=m {
-                    #[allow(clippy::cast_precision_loss, reason = "small integers")]
-                    let v = v0 + (e1 * a as f64 + e2 * c as f64) * step;
-                    local.push(Orbit::through(group.centroid, best.centre, v));
-                }
-            }
+            let local: Vec<Orbit> =
+                velocity_grid(velocity(&best), group.centroid - best.centre, step, m)
+                    .map(|v| Orbit::through(group.centroid, best.centre, v))
+                    .collect();
             let (l, views) = score(model, ctx, group, &local, (range, h), stepper);
             let j = argmin(&l);
             best = local[j];
@@ -356,9 +360,6 @@ pub fn search(
                 best.omega.norm(),
                 -gain
             ));
-        }
-        if cfg.horizons.len() == 1 {
-            gain = l[orbits.len()] - l[argmin(&l)];
         }
         let speed = velocity(&best).norm();
         if gain >= cfg.min_gain {
@@ -383,11 +384,9 @@ pub fn search(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{Model, Motion, Waypoints};
-    use crate::motion::test_field;
+    use crate::motion::test_support::{canonical_poses, static_model, turned_view};
     use crate::train::step::render_options;
     use evogs_math::Quat;
-    use evogs_ode::Method;
     use evogs_splat::random_scene;
 
     /// A scene of two groups: 200 Gaussians in a ball of radius 0.3 about the origin and 60 in
@@ -462,10 +461,7 @@ mod tests {
     #[test]
     fn the_search_finds_the_orbit_the_views_show() {
         let (splats, camera) = two_groups();
-        let (p0, q0): (Vec<Vec3<f64>>, Vec<Quat<f64>>) = (
-            splats.means.iter().map(|m| m.cast()).collect(),
-            splats.quats.iter().map(|q| q.normalize().cast()).collect(),
-        );
+        let (p0, q0) = canonical_poses(&splats);
         let groups = canonical_groups(&p0, &splats.opacity_logits, &cfg());
         assert_eq!(
             groups.iter().map(|g| g.members.len()).collect::<Vec<_>>(),
@@ -489,32 +485,18 @@ mod tests {
             .map(|k| {
                 let time = f64::from(k) * 0.05;
                 let camera = if k % 2 == 0 { camera } else { side };
-                let mut st = splats.clone();
-                let turn = exp_quat(omega * time);
-                for i in 200..260 {
-                    st.means[i] = (centre + turn.rotate(p0[i] - centre)).cast();
-                    st.quats[i] = turn.mul_quat(q0[i]).cast();
-                }
-                let image = render_tiled(&st, &camera, &opts, &mut rast)
-                    .raster
-                    .rgb
-                    .clone();
-                ViewData {
-                    camera,
+                turned_view(
+                    &splats,
+                    200..260,
+                    (centre, omega),
                     time,
-                    image,
-                }
+                    camera,
+                    &opts,
+                    &mut rast,
+                )
             })
             .collect();
-        let mut model = Model::new(
-            splats.clone(),
-            test_field(),
-            Motion::Static,
-            Waypoints::Off,
-            Method::Rk4,
-            0.25,
-            vec![0.0],
-        );
+        let mut model = static_model(&splats);
         let mut ctx = SearchContext {
             views: views.iter().collect(),
             opts,
@@ -563,23 +545,19 @@ mod tests {
                 f.orbit,
                 Orbit::through(f.group.centroid, centre, Vec3::new(0.0, 1.0, 0.0)),
             ];
-            let seq = score(
-                &mut model,
-                &ctx,
-                &f.group,
-                &orbits,
-                ((0.0, 1.0), 0.6),
-                &mut None,
-            );
+            let mut scored = |ctx: &SearchContext<'_>| {
+                score(
+                    &mut model,
+                    ctx,
+                    &f.group,
+                    &orbits,
+                    ((0.0, 1.0), 0.6),
+                    &mut None,
+                )
+            };
+            let seq = scored(&ctx);
             ctx.par = Par::Rayon;
-            let par = score(
-                &mut model,
-                &ctx,
-                &f.group,
-                &orbits,
-                ((0.0, 1.0), 0.6),
-                &mut None,
-            );
+            let par = scored(&ctx);
             assert_eq!(seq, par);
         }
     }

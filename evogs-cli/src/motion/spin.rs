@@ -294,9 +294,10 @@ mod tests {
     use super::*;
     use crate::model::{Motion, Waypoints};
     use crate::motion::bodies::GRID;
-    use crate::motion::test_field as field;
+    use crate::motion::test_support::{
+        canonical_poses, static_model, test_field as field, turned_view,
+    };
     use crate::train::step::render_options;
-    use evogs_math::so3::exp_quat;
     use evogs_ode::Method;
     use evogs_splat::random_scene;
 
@@ -317,13 +318,6 @@ mod tests {
         }
     }
 
-    fn canonical_poses(splats: &Splats<f32>) -> (Vec<Vec3<f64>>, Vec<Quat<f64>>) {
-        (
-            splats.means.iter().map(|m| m.cast()).collect(),
-            splats.quats.iter().map(|q| q.normalize().cast()).collect(),
-        )
-    }
-
     #[test]
     fn the_scan_finds_the_spin_the_views_show() {
         // Views of a scene spinning at `omega`; the model's learnt motion is half of it.
@@ -336,32 +330,19 @@ mod tests {
         let views: Vec<ViewData<f32>> = [0.1, 0.2, 0.3, 0.45, 0.6]
             .iter()
             .map(|&time| {
-                let mut st = splats.clone();
-                for &i in &truth.members {
-                    let turn = exp_quat(omega * time);
-                    st.means[i] = (truth.c0 + turn.rotate(p0[i] - truth.c0)).cast();
-                    st.quats[i] = turn.mul_quat(q0[i]).cast();
-                }
-                let image = render_tiled(&st, &camera, &opts, &mut rast)
-                    .raster
-                    .rgb
-                    .clone();
-                ViewData {
-                    camera,
+                let members = truth.members.iter().copied();
+                turned_view(
+                    &splats,
+                    members,
+                    (truth.c0, omega),
                     time,
-                    image,
-                }
+                    camera,
+                    &opts,
+                    &mut rast,
+                )
             })
             .collect();
-        let mut model = Model::new(
-            splats.clone(),
-            field(),
-            Motion::Static,
-            Waypoints::Off,
-            Method::Rk4,
-            0.25,
-            vec![0.0],
-        );
+        let mut model = static_model(&splats);
         let ctx = SearchContext {
             views: views.iter().collect(),
             opts,
