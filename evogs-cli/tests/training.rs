@@ -260,6 +260,35 @@ fn curriculum_window_grows_and_initialises_anchors_on_arrival() {
     );
 }
 
+/// Trains `t` to the end, running `search` whenever `due` says so. Returns the iterations
+/// it ran after and its last result, and checks that the model stayed finite.
+fn train_with_search<R: Default>(
+    mut t: Trainer,
+    due: fn(&Trainer) -> bool,
+    search: fn(&mut Trainer) -> R,
+) -> (Vec<u64>, R) {
+    let (mut at, mut result) = (Vec::new(), R::default());
+    while !t.finished() {
+        if due(&t) {
+            at.push(t.iteration);
+            result = search(&mut t);
+        }
+        t.step().expect("finite step after the search");
+    }
+    assert!(
+        t.model.field.params().iter().all(|v| v.is_finite()),
+        "finite field"
+    );
+    assert!(
+        t.model
+            .anchors
+            .iter()
+            .all(|a| a.means.iter().all(|m| m.is_finite())),
+        "finite anchors"
+    );
+    (at, result)
+}
+
 #[test]
 fn the_spin_search_is_due_once_and_leaves_a_trainable_model() {
     let mut c = tiny_config();
@@ -273,27 +302,13 @@ fn the_spin_search_is_due_once_and_leaves_a_trainable_model() {
     c.spin_search.max_radius = 10.0;
     c.spin_search.multipliers = vec![0.0, 1.0, 2.0];
     c.spin_search.fit_iters = 20;
-    let mut t = trainer(c);
-    let mut due = Vec::new();
-    let mut chosen = Vec::new();
-    while !t.finished() {
-        if t.spin_search_due() {
-            due.push(t.iteration);
-            chosen = t.spin_search(&mut |_| {});
-        }
-        t.step().expect("finite step after the search");
-    }
+    let (due, chosen) = train_with_search(trainer(c), Trainer::spin_search_due, |t| {
+        t.spin_search(&mut |_| {})
+    });
     assert_eq!(due, vec![70], "due exactly once, after iteration 70");
     assert!(
         chosen.iter().any(Option::is_some),
         "at least one body searched: {chosen:?}"
-    );
-    assert!(t.model.field.params().iter().all(|v| v.is_finite()));
-    assert!(
-        t.model
-            .anchors
-            .iter()
-            .all(|a| a.means.iter().all(|m| m.is_finite()))
     );
 }
 
@@ -316,24 +331,10 @@ fn the_orbit_search_is_due_once_and_leaves_a_trainable_model() {
     c.orbit_search.view_stride = 8;
     c.orbit_search.min_gain = f64::NEG_INFINITY;
     c.orbit_search.fit_iters = 20;
-    let mut t = trainer(c);
-    let mut due = Vec::new();
-    let mut found = Vec::new();
-    while !t.finished() {
-        if t.orbit_search_due() {
-            due.push(t.iteration);
-            found = t.orbit_search(&mut |_| {});
-        }
-        t.step().expect("finite step after the search");
-    }
+    let (due, found) = train_with_search(trainer(c), Trainer::orbit_search_due, |t| {
+        t.orbit_search(&mut |_| {})
+    });
     assert_eq!(due, vec![50], "due exactly once, after iteration 50");
     assert!(!found.is_empty(), "at least one orbit taken");
     assert!(found.iter().all(|f| f.orbit.omega.is_finite()));
-    assert!(t.model.field.params().iter().all(|v| v.is_finite()));
-    assert!(
-        t.model
-            .anchors
-            .iter()
-            .all(|a| a.means.iter().all(|m| m.is_finite()))
-    );
 }
