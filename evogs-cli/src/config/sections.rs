@@ -1,0 +1,208 @@
+//! The sections of [`TrainConfig`](super::TrainConfig): data, initial Gaussians, dynamics,
+//! losses, optimiser, densification and schedule (the field's and the searches' own are
+//! beside their code).
+
+use crate::model::{Motion, Waypoints};
+use serde::{Deserialize, Serialize};
+
+/// Data loading and the training protocol.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataConfig {
+    /// Background colour the RGBA frames are composited onto and renders end on.
+    pub background: [f32; 3],
+    /// Integer downscale factor of the images.
+    pub downscale: usize,
+    /// `full`, `sparse` (every `stride`-th distinct training time), `future` (train on
+    /// `t ≤ split_time`) or `backward` (train on `t ≥ split_time`).
+    pub protocol: Protocol,
+    /// Stride of the sparse protocol.
+    pub stride: usize,
+    /// Split time of the future and backward protocols.
+    pub split_time: f64,
+}
+
+/// Which training frames are supervised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Protocol {
+    /// All training frames.
+    Full,
+    /// Every k-th distinct training time.
+    Sparse,
+    /// Train on `t ≤ split_time`.
+    Future,
+    /// Train on `t ≥ split_time`.
+    Backward,
+}
+
+impl std::str::FromStr for Protocol {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "full" => Ok(Self::Full),
+            "sparse" => Ok(Self::Sparse),
+            "future" => Ok(Self::Future),
+            "backward" => Ok(Self::Backward),
+            _ => Err(format!(
+                "unknown protocol `{s}` (full, sparse, future, backward)"
+            )),
+        }
+    }
+}
+
+/// Initial Gaussians.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitConfig {
+    /// Use the dataset's `points3d.ply` when present (else random points).
+    pub use_points: bool,
+    /// Number of random points when there is no point cloud.
+    pub random_points: usize,
+    /// Half-size of the cube of random points.
+    pub random_extent: f64,
+    /// Storage SH degree (0–3).
+    pub sh_degree: usize,
+    /// Margin added to each side of the point cloud's bounding box for the HexPlane, as a
+    /// fraction of the box size.
+    pub aabb_margin: f64,
+}
+
+/// Dynamics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DynamicsConfig {
+    /// `velocity` (EvoGS), `deformation` (4DGS-style) or `static`.
+    pub motion: Motion,
+    /// ODE method: euler, midpoint, heun, rk4, rk38.
+    pub method: String,
+    /// Largest step as a fraction of the training time range (the last step of a frame is
+    /// shortened to land on its time).
+    pub step_fraction: f64,
+    /// Waypoints: trainable, snapshot or off.
+    pub waypoints: Waypoints,
+    /// Number of anchors (start, …, end of the training time range).
+    pub anchors: usize,
+    /// Time coordinate of the HexPlane: `normalized` (`[t_min, t_max] → [−1, 1]`) or `raw`.
+    pub time_mapping: String,
+}
+
+/// Loss weights.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LossConfig {
+    /// λ of the D-SSIM term: `(1 − λ)·L1 + λ·(1 − SSIM)`.
+    pub lambda_ssim: f64,
+    /// Spatial-plane smoothness weight.
+    pub plane_tv: f64,
+    /// Space-time-plane smoothness weight.
+    pub time_smoothness: f64,
+    /// L1-of-time-planes-toward-1 weight.
+    pub l1_time: f64,
+    /// Velocity coherence weight.
+    pub lambda_coherence: f64,
+    /// Gaussians sampled for the coherence loss.
+    pub coherence_samples: usize,
+    /// How the coherence samples are drawn. `false` (the released code): uniformly, so the
+    /// nearest neighbours within the sample lie about `extent / samples^⅓` apart (0.3 scene
+    /// units for 500 of 20 000 Gaussians in `toys`) and the term compares different objects,
+    /// a smoothness prior on the whole field. `true`: in local clusters, each a random
+    /// Gaussian and its nearest Gaussians of the whole cloud (canonical positions), so the
+    /// neighbours within the sample are true neighbours and the term is a local rigidity prior
+    /// (with the twist velocity, free for any rigid motion of an object).
+    pub coherence_local: bool,
+    /// Anchor loss weight.
+    pub lambda_anchor: f64,
+    /// Iterations between anchor-loss evaluations (cycling through the segments).
+    pub anchor_every: u64,
+}
+
+/// Learning rates (per group) and schedules.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OptimConfig {
+    /// Positions: initial rate (× scene extent).
+    pub position_lr_init: f64,
+    /// Positions: final rate (× scene extent).
+    pub position_lr_final: f64,
+    /// MLP ("deformation") initial rate (× scene extent).
+    pub deformation_lr_init: f64,
+    /// MLP final rate (× scene extent).
+    pub deformation_lr_final: f64,
+    /// HexPlane ("grid") initial rate (× scene extent).
+    pub grid_lr_init: f64,
+    /// HexPlane final rate (× scene extent).
+    pub grid_lr_final: f64,
+    /// Steps of the exponential decays (the position and field decays pause during the
+    /// temporal curriculum, so they end at `iterations − curriculum_iters`).
+    pub lr_max_steps: u64,
+    /// SH DC rate (higher coefficients: /20).
+    pub feature_lr: f64,
+    /// Opacity-logit rate.
+    pub opacity_lr: f64,
+    /// Log-scale rate.
+    pub scaling_lr: f64,
+    /// Quaternion rate.
+    pub rotation_lr: f64,
+}
+
+/// Densification, pruning and opacity reset (3DGS adaptive density control).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DensifyConfig {
+    /// First iteration of densification.
+    pub from_iter: u64,
+    /// End of the densification window (exclusive, as 3DGS: densification, statistics and
+    /// opacity resets run while `from_iter ≤ iteration < until_iter`).
+    pub until_iter: u64,
+    /// Iterations between densifications.
+    pub interval: u64,
+    /// Threshold on the view-averaged 2D-mean gradient norm (NDC units, as 3DGS).
+    pub grad_threshold: f64,
+    /// Clone vs split boundary: max scale ≤ `percent_dense` × extent clones.
+    pub percent_dense: f64,
+    /// Prune Gaussians with opacity below this.
+    pub min_opacity: f64,
+    /// Prune Gaussians with screen radius above this (pixels; 0 disables).
+    pub max_screen_size: f64,
+    /// Iterations between opacity resets (0 disables).
+    pub opacity_reset_interval: u64,
+    /// Upper bound on the number of Gaussians.
+    pub max_gaussians: usize,
+}
+
+/// Iteration counts and periodic tasks.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScheduleConfig {
+    /// Static warm-up iterations (plain 3DGS) before the dynamics are switched on.
+    pub warmup_iters: u64,
+    /// Total iterations (warm-up included).
+    pub iterations: u64,
+    /// Iterations between SH-degree increments.
+    pub sh_degree_interval: u64,
+    /// Iterations between checkpoints (0: only at the end).
+    pub checkpoint_every: u64,
+    /// Iterations between log lines.
+    pub log_every: u64,
+    /// Iterations between refreshes of snapshot anchors.
+    pub snapshot_every: u64,
+    /// Temporal curriculum, start: the fraction of the training time range, from its start,
+    /// whose views the static warm-up sees (1: all of them). A small window keeps moving
+    /// objects sharp in the canonical state instead of smearing them along their paths.
+    pub warmup_time_window: f64,
+    /// Temporal curriculum, growth: dynamic iterations over which the window of supervised
+    /// times grows linearly from `warmup_time_window` to the whole range (0: the whole range
+    /// as soon as the dynamics start). Each trainable anchor is re-initialised, by integrating
+    /// from the anchor before it, when the window reaches its time, so every new stretch of
+    /// motion is learnt as a small step from motion already fitted.
+    pub curriculum_iters: u64,
+    /// Temporal curriculum, focus: while the window grows, the probability that an
+    /// iteration supervises a view from the newest twentieth of the time range inside the
+    /// window (the motion not yet fitted) instead of the next view of the epoch.
+    pub curriculum_focus: f64,
+    /// Views per iteration (the released code's batch size): the step's loss is the mean of
+    /// their photometric terms, the regularisers are counted once, and each iteration costs
+    /// about this many single-view iterations.
+    pub views_per_step: u64,
+}
