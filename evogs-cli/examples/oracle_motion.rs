@@ -28,12 +28,11 @@
 //! `LR_MULT` (1); `STEP_FRACTION` (0: the run's) sets the stepper's largest step for the fit and
 //! the report only (the checkpoint keeps the run's).
 
+#[path = "common/stored_run.rs"]
+mod stored_run;
 use evogs_cli::app::paths::RunFolder;
-use evogs_cli::app::train::load_dataset;
-use evogs_cli::config::TrainConfig;
 use evogs_cli::model::{Model, ModelGrad};
 use evogs_cli::run::checkpoint;
-use evogs_cli::train::views::training_views;
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Par, Quat, Vec3};
 use evogs_ode::Stepper;
@@ -304,11 +303,7 @@ fn main() {
     )]
     let iters = num(3, 2000.0) as usize;
     let (static_weight, lr_mult, step_fraction) = (num(4, 3.0), num(5, 1.0), num(6, 0.0));
-    let text = std::fs::read_to_string(run.config()).expect("the run's config.toml");
-    let cfg = TrainConfig::from_run_toml(&text).expect("the run's config.toml");
-    let ds = load_dataset(&run.data_dir().expect("data folder"), &cfg, true).expect("dataset");
-    let views = training_views(&ds.train, &(0..ds.train.len()).collect::<Vec<_>>()).expect("views");
-    let mut tr = checkpoint::resume(&run.checkpoint(), views).expect("checkpoint");
+    let (_, mut tr) = stored_run::load(&run);
     assert!(
         !tr.model.dynamics_active,
         "the run must stop at the end of its static warm-up"

@@ -9,11 +9,10 @@
 //! The search's settings are the `[orbit_search]` table of `RUN/config.toml` (defaults if it
 //! has none). `--dry-run` prints the search and leaves the checkpoint as it is.
 
+#[path = "common/stored_run.rs"]
+mod stored_run;
 use evogs_cli::app::paths::RunFolder;
-use evogs_cli::app::train::load_dataset;
-use evogs_cli::config::TrainConfig;
 use evogs_cli::run::checkpoint;
-use evogs_cli::train::views::training_views;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -23,11 +22,7 @@ fn main() {
         args.first().expect("usage: orbit_search RUN [--dry-run]"),
     ));
     let dry = args.iter().any(|a| a == "--dry-run");
-    let text = std::fs::read_to_string(run.config()).expect("the run's config.toml");
-    let cfg = TrainConfig::from_run_toml(&text).expect("the run's config.toml");
-    let ds = load_dataset(&run.data_dir().expect("data folder"), &cfg, true).expect("dataset");
-    let views = training_views(&ds.train, &(0..ds.train.len()).collect::<Vec<_>>()).expect("views");
-    let mut tr = checkpoint::resume(&run.checkpoint(), views).expect("checkpoint");
+    let (cfg, mut tr) = stored_run::load(&run);
     if !tr.model.dynamics_active {
         tr.step().expect("one step into the dynamics");
     }

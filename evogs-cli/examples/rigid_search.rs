@@ -8,22 +8,17 @@
 //! The search's settings are the `[spin_search]` table of `RUN/config.toml` (defaults if it
 //! has none).
 
+#[path = "common/stored_run.rs"]
+mod stored_run;
 use evogs_cli::app::paths::RunFolder;
-use evogs_cli::app::train::load_dataset;
-use evogs_cli::config::TrainConfig;
 use evogs_cli::run::checkpoint;
-use evogs_cli::train::views::training_views;
 use std::path::PathBuf;
 
 fn main() {
     let run = RunFolder::new(&PathBuf::from(
         std::env::args().nth(1).expect("usage: rigid_search RUN"),
     ));
-    let text = std::fs::read_to_string(run.config()).expect("the run's config.toml");
-    let cfg = TrainConfig::from_run_toml(&text).expect("the run's config.toml");
-    let ds = load_dataset(&run.data_dir().expect("data folder"), &cfg, true).expect("dataset");
-    let views = training_views(&ds.train, &(0..ds.train.len()).collect::<Vec<_>>()).expect("views");
-    let mut tr = checkpoint::resume(&run.checkpoint(), views).expect("checkpoint");
+    let (cfg, mut tr) = stored_run::load(&run);
     assert!(tr.model.dynamics_active, "the run's dynamics must be on");
     tr.cfg.spin_search = cfg.spin_search;
     println!("iteration {}, {} Gaussians", tr.iteration, tr.model.len());
