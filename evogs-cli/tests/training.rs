@@ -328,6 +328,9 @@ fn the_orbit_search_is_due_once_and_leaves_a_trainable_model() {
     c.orbit_search.speed_step = 0.5;
     c.orbit_search.horizons = vec![0.3, 1.0];
     c.orbit_search.local_steps = 1;
+    c.orbit_search.max_spin = 1.0;
+    c.orbit_search.spin_step = 1.0;
+    c.orbit_search.polish_rounds = 2;
     c.orbit_search.view_stride = 8;
     c.orbit_search.min_gain = f64::NEG_INFINITY;
     c.orbit_search.fit_iters = 20;
@@ -336,5 +339,9 @@ fn the_orbit_search_is_due_once_and_leaves_a_trainable_model() {
     });
     assert_eq!(due, vec![50], "due exactly once, after iteration 50");
     assert!(!found.is_empty(), "at least one orbit taken");
-    assert!(found.iter().all(|f| f.orbit.omega.is_finite()));
+    assert!(
+        found
+            .iter()
+            .all(|f| f.orbit.omega.is_finite() && f.orbit.spin.is_finite())
+    );
 }

@@ -104,13 +104,20 @@ pub struct Body {
     pub rigid_rms: f64,
     /// Start and length of the time range.
     pub range: (f64, f64),
+    /// An exact circular centroid path, `(p, Ω)`: the centroid turns at `Ω` about the axis
+    /// through `p`, from `c0` at the range's start. It replaces the sampled `centroid`.
+    pub circle: Option<(Vec3<f64>, Vec3<f64>)>,
 }
 
 impl Body {
-    /// The centroid at `t` (linear between grid times) and its rate.
+    /// The centroid at `t` (on the circle, or linear between grid times) and its rate.
     #[must_use]
     pub fn centre(&self, t: f64) -> (Vec3<f64>, Vec3<f64>) {
         let (t_lo, span) = self.range;
+        if let Some((p, w)) = self.circle {
+            let c = p + exp_quat(w * (t - t_lo)).rotate(self.c0 - p);
+            return (c, w.cross(c - p));
+        }
         let (k, f) = Paths::locate(t_lo, span, t);
         let (a, b) = (self.centroid[k], self.centroid[k + 1]);
         #[allow(clippy::cast_precision_loss, reason = "a small count")]
@@ -306,6 +313,7 @@ pub fn find_bodies(paths: &Paths, p0: &[Vec3<f64>], cfg: &SpinSearchConfig) -> V
             omega,
             rigid_rms,
             range: (paths.t_lo, paths.span),
+            circle: None,
         });
     }
     bodies

@@ -20,6 +20,8 @@
 
 pub mod bodies;
 pub mod orbit;
+mod orbit_refine;
+mod orbit_score;
 pub mod spin;
 #[cfg(test)]
 pub(crate) mod test_support;
@@ -140,6 +142,18 @@ pub struct OrbitSearchConfig {
     pub horizons: Vec<f64>,
     /// Steps either side of the best velocity in each refining stage.
     pub local_steps: usize,
+    /// Largest own spin of the body tried (radians per unit time; 0: the body turns with its
+    /// orbit, unsearched). The spins are searched on a grid of step `spin_step` at the first
+    /// horizon, then on 3×3×3 grids of half the previous step at each later one.
+    pub max_spin: f64,
+    /// Step of the global spin grid.
+    pub spin_step: f64,
+    /// Rounds of the last local search over centre, velocity and spin, at the last horizon
+    /// (0: none).
+    pub polish_rounds: usize,
+    /// Its first step of the centre (scene units); those of the velocity and the spin are
+    /// the last stage's.
+    pub polish_step: f64,
     /// Every this-many-th training view enters the loss.
     pub view_stride: usize,
     /// Smallest gain (mean loss per view below the learnt motion's, over the views to the
@@ -168,6 +182,10 @@ impl Default for OrbitSearchConfig {
             speed_step: 1.0,
             horizons: vec![0.06, 0.12, 0.25, 0.5, 1.0],
             local_steps: 2,
+            max_spin: 16.0,
+            spin_step: 2.0,
+            polish_rounds: 6,
+            polish_step: 0.02,
             view_stride: 2,
             min_gain: 1e-4,
             fit_iters: 1000,
@@ -202,6 +220,14 @@ impl OrbitSearchConfig {
         chk(
             self.view_stride >= 1,
             "orbit_search.view_stride must be at least 1",
+        )?;
+        chk(
+            self.max_spin >= 0.0 && self.max_spin.is_finite() && pos(self.spin_step),
+            "orbit_search.max_spin must be a non-negative number and spin_step positive",
+        )?;
+        chk(
+            self.polish_step >= 0.0 && self.polish_step.is_finite(),
+            "orbit_search.polish_step must be a non-negative number",
         )?;
         chk(
             self.fit_jitter >= 0.0 && self.fit_jitter.is_finite(),
@@ -251,6 +277,9 @@ mod tests {
             "horizons = [0.0]",
             "speed_step = 0.0",
             "link = -1.0",
+            "max_spin = -1.0",
+            "spin_step = 0.0",
+            "polish_step = -0.1",
         ] {
             let c = c
                 .merge_toml(&format!("[orbit_search]\n{bad}\n"))

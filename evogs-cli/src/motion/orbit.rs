@@ -16,22 +16,21 @@
 //! so an orbit is fixed by the centre and the body's initial velocity `v`, two numbers in the
 //! plane perpendicular to `r`. The search is a continuation in time: a grid over `v` scored
 //! by the photometric training loss of the views up to a short horizon (where a wrong rate
-//! costs little), then finer grids around the best over longer and longer horizons.
+//! costs little), then finer grids around the best over longer and longer horizons. The body
+//! need not turn with its orbit: its own spin is searched the same way, and a last local
+//! search refines every parameter ([`super::orbit_refine`]).
 //! [`crate::train::trainer::Trainer::orbit_search`] runs it at `[orbit_search] at_iter` and
 //! teaches the field the orbits found ([`super::spin::refit`]).
 
 use super::OrbitSearchConfig;
 use super::bodies::{Body, GRID, Paths, components};
-use super::spin::{SearchContext, place};
-use crate::train::step::ViewData;
-use evogs_math::Par;
+use super::orbit_refine::{polish, spin_grid};
+use super::orbit_score::score;
+use super::spin::SearchContext;
 use evogs_math::Vec3;
 use evogs_math::activation::sigmoid;
 use evogs_math::so3::exp_quat;
 use evogs_ode::Stepper;
-use evogs_splat::loss::photometric_loss;
-use evogs_splat::ssim::SsimWorkspace;
-use evogs_splat::{RenderOptions, Splats, TiledRasterizer, render_tiled};
 
 /// A group of the canonical cloud: its Gaussians, centroid and radius.
 #[derive(Clone, Debug)]
@@ -75,29 +74,49 @@ pub fn canonical_groups(p0: &[Vec3<f64>], logits: &[f32], cfg: &OrbitSearchConfi
     groups
 }
 
-/// A circular orbit: a rigid turn at angular velocity `omega` about the axis through `centre`.
+/// A circular orbit: the body's centroid turns at angular velocity `omega` about the axis
+/// through `centre`, while the body turns about its centroid at its own `spin` (both world
+/// frame, radians per unit time; `spin = omega` is a rigid turn of the whole body about the
+/// axis, as the Moon's about the Earth).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Orbit {
     /// A point on the axis.
     pub centre: Vec3<f64>,
-    /// Angular velocity (world frame, radians per unit time).
+    /// Angular velocity of the centroid about the axis.
     pub omega: Vec3<f64>,
+    /// The body's own angular velocity.
+    pub spin: Vec3<f64>,
 }
 
 impl Orbit {
     /// The orbit about `centre` that moves the point `c0` at velocity `v` (its component
-    /// along `c0 − centre` is ignored).
+    /// along `c0 − centre` is ignored), the body turning with it (`spin = omega`).
     #[must_use]
     pub fn through(c0: Vec3<f64>, centre: Vec3<f64>, v: Vec3<f64>) -> Self {
         let r = c0 - centre;
+        let omega = r.cross(v) * (1.0 / r.norm_squared());
         Self {
             centre,
-            omega: r.cross(v) * (1.0 / r.norm_squared()),
+            omega,
+            spin: omega,
         }
     }
 
+    /// The same orbit with the body's own angular velocity `spin`.
+    #[must_use]
+    pub fn with_spin(self, spin: Vec3<f64>) -> Self {
+        Self { spin, ..self }
+    }
+
+    /// The velocity of the point `c0` on the orbit.
+    #[must_use]
+    pub fn velocity_at(&self, c0: Vec3<f64>) -> Vec3<f64> {
+        self.omega.cross(c0 - self.centre)
+    }
+
     /// `group` moving along this orbit from `range.0` over `range` (start, length), as a
-    /// [`Body`] (its centroid path sampled on the grid), for placing its members and for the field fit.
+    /// [`Body`] (its centroid path exact, and also sampled on the grid), for placing its
+    /// members and for the field fit.
     #[must_use]
     pub fn body(&self, group: &Group, range: (f64, f64)) -> Body {
         let c0 = group.centroid;
@@ -113,15 +132,16 @@ impl Orbit {
             c0,
             radius: group.radius,
             centroid,
-            omega: self.omega,
+            omega: self.spin,
             rigid_rms: 0.0,
             range,
+            circle: Some((self.centre, self.omega)),
         }
     }
 }
 
 /// A unit vector perpendicular to `r` (not zero), and a second one perpendicular to both.
-fn plane_basis(r: Vec3<f64>) -> (Vec3<f64>, Vec3<f64>) {
+pub(super) fn plane_basis(r: Vec3<f64>) -> (Vec3<f64>, Vec3<f64>) {
     let u = r * (1.0 / r.norm());
     let a = if u.x.abs() < 0.9 {
         Vec3::new(1.0, 0.0, 0.0)
@@ -146,107 +166,6 @@ fn velocity_grid(
         #[allow(clippy::cast_precision_loss, reason = "small integers")]
         (-k..=k).map(move |c| v0 + (e1 * a as f64 + e2 * c as f64) * step)
     })
-}
-
-/// Per-worker buffers of [`score`].
-#[derive(Default)]
-struct Workspace {
-    rast: TiledRasterizer<f32>,
-    ssim: SsimWorkspace<f32>,
-    probe: Splats<f32>,
-}
-
-/// Photometric loss of `view` rendered from `st` with each of `bodies` placed in turn (with
-/// no bodies, of `st` itself).
-fn losses(
-    ctx: &SearchContext<'_>,
-    view: &ViewData<f32>,
-    st: &Splats<f32>,
-    bodies: &[Body],
-    ws: &mut Workspace,
-) -> Vec<f64> {
-    let opts = RenderOptions {
-        par: Par::Seq,
-        ..ctx.opts
-    };
-    let Workspace { rast, ssim, probe } = ws;
-    let mut loss = |s: &Splats<f32>| {
-        let r = render_tiled(s, &view.camera, &opts, rast);
-        f64::from(photometric_loss(ssim, &r.raster.rgb, &view.image, ctx.lambda, Par::Seq).total)
-    };
-    if bodies.is_empty() {
-        return vec![loss(st)];
-    }
-    // Every body overwrites all of its (the same) members, so one copy serves them all.
-    probe.clone_from(st);
-    bodies
-        .iter()
-        .map(|body| {
-            place(
-                probe,
-                body,
-                view.time,
-                1.0,
-                &ctx.p0,
-                &ctx.q0,
-                &ctx.log_scales,
-            );
-            loss(probe)
-        })
-        .collect()
-}
-
-/// Mean loss per view, over the views up to `horizon` (fraction of `range`), of the model with
-/// `group` moved along each of `orbits`; last, that of the model's own motion. Returns the
-/// losses and the number of views. With `ctx.par` parallel, the orbits are shared among the
-/// threads (each renders one at a time); the sums are in view order either way.
-fn score(
-    model: &mut crate::model::Model<f32>,
-    ctx: &SearchContext<'_>,
-    group: &Group,
-    orbits: &[Orbit],
-    (range, horizon): ((f64, f64), f64),
-    stepper: &mut Option<Stepper<f32>>,
-) -> (Vec<f64>, usize) {
-    let mut st = Splats::default();
-    let bodies: Vec<Body> = orbits.iter().map(|o| o.body(group, range)).collect();
-    let workers = match ctx.par {
-        Par::Seq => 1,
-        #[cfg(feature = "rayon")]
-        Par::Rayon => rayon::current_num_threads().max(1),
-    };
-    let mut ws: Vec<Workspace> = (0..workers).map(|_| Workspace::default()).collect();
-    let chunk = bodies.len().div_ceil(workers);
-    let mut total = vec![0.0; bodies.len() + 1];
-    let mut count = 0usize;
-    for v in ctx
-        .views
-        .iter()
-        .filter(|v| v.time - range.0 <= horizon * range.1)
-    {
-        count += 1;
-        model.splats_at(v.time, stepper, &mut st);
-        // Last, the model's own motion.
-        total[bodies.len()] += losses(ctx, v, &st, &[], &mut ws[0])[0];
-        let per: Vec<Vec<f64>> = match ctx.par {
-            Par::Seq => vec![losses(ctx, v, &st, &bodies, &mut ws[0])],
-            #[cfg(feature = "rayon")]
-            Par::Rayon => {
-                use rayon::prelude::*;
-                bodies
-                    .par_chunks(chunk)
-                    .zip(ws.par_iter_mut())
-                    .map(|(b, w)| losses(ctx, v, &st, b, w))
-                    .collect()
-            }
-        };
-        for (t, l) in total.iter_mut().zip(per.iter().flatten()) {
-            *t += l;
-        }
-    }
-    #[allow(clippy::cast_precision_loss, reason = "a count")]
-    let inv = 1.0 / count.max(1) as f64;
-    (total.into_iter().map(|l| l * inv).collect(), count)
 }
 
 /// One body's search: the centre and velocity chosen, and the gain.
@@ -328,7 +247,7 @@ pub fn search(
         );
         let mut best = orbits[argmin(&l)];
         let mut gain = l[orbits.len()] - l[argmin(&l)];
-        let velocity = |o: &Orbit| o.omega.cross(group.centroid - o.centre);
+        let velocity = |o: &Orbit| o.velocity_at(group.centroid);
         log(&format!(
             "orbit search: group {b}: {} orbits about {} centres over {views} views to {:.2}: best about {:.3?}, speed {:.3}, {:+.2e} per view",
             orbits.len(),
@@ -341,6 +260,31 @@ pub fn search(
         if velocity(&best).norm() < 1e-12 {
             continue;
         }
+        let spins = cfg.max_spin > 0.0;
+        let mut spin_step = cfg.spin_step;
+        if spins {
+            // The body's own spin, globally at the first horizon; turning with the orbit
+            // (the velocity grid's assumption) is one of the candidates.
+            #[allow(clippy::cast_possible_truncation, reason = "a small grid")]
+            let k = (cfg.max_spin / cfg.spin_step).floor() as i64;
+            let mut cands = vec![best];
+            cands.extend(
+                spin_grid(Vec3::zero(), cfg.spin_step, k, cfg.max_spin)
+                    .into_iter()
+                    .map(|s| best.with_spin(s)),
+            );
+            let (l, views) = score(model, ctx, group, &cands, (range, cfg.horizons[0]), stepper);
+            let j = argmin(&l);
+            best = cands[j];
+            gain = l[cands.len()] - l[j];
+            log(&format!(
+                "orbit search: group {b}: {} spins over {views} views: spin {:.2?} (|{:.3}|), {:+.2e} per view",
+                cands.len(),
+                best.spin.to_array(),
+                best.spin.norm(),
+                -gain
+            ));
+        }
         let mut step = cfg.speed_step;
         for &h in &cfg.horizons[1..] {
             step *= 0.5;
@@ -348,27 +292,54 @@ pub fn search(
             let m = cfg.local_steps as i64;
             let local: Vec<Orbit> =
                 velocity_grid(velocity(&best), group.centroid - best.centre, step, m)
-                    .map(|v| Orbit::through(group.centroid, best.centre, v))
+                    .map(|v| Orbit::through(group.centroid, best.centre, v).with_spin(best.spin))
                     .collect();
             let (l, views) = score(model, ctx, group, &local, (range, h), stepper);
             let j = argmin(&l);
             best = local[j];
             gain = l[local.len()] - l[j];
+            if spins {
+                spin_step *= 0.5;
+                let local: Vec<Orbit> = spin_grid(best.spin, spin_step, 1, f64::INFINITY)
+                    .into_iter()
+                    .map(|s| best.with_spin(s))
+                    .collect();
+                let (l, _) = score(model, ctx, group, &local, (range, h), stepper);
+                let j = argmin(&l);
+                best = local[j];
+                gain = l[local.len()] - l[j];
+            }
             log(&format!(
-                "orbit search: group {b}: horizon {h:.2} ({views} views), step {step:.4}: speed {:.3}, |ω| {:.3}, {:+.2e} per view",
+                "orbit search: group {b}: horizon {h:.2} ({views} views), step {step:.4}: speed {:.3}, |ω| {:.3}, spin {:.2?}, {:+.2e} per view",
                 velocity(&best).norm(),
                 best.omega.norm(),
+                best.spin.to_array(),
                 -gain
             ));
+        }
+        if cfg.polish_rounds > 0 {
+            let last = cfg.horizons[cfg.horizons.len() - 1];
+            let steps = [cfg.polish_step, step, if spins { spin_step } else { 0.0 }];
+            (best, gain) = polish(
+                model,
+                ctx,
+                group,
+                best,
+                (steps, cfg.polish_rounds),
+                (range, last),
+                stepper,
+                log,
+            );
         }
         let speed = velocity(&best).norm();
         if gain >= cfg.min_gain {
             log(&format!(
-                "orbit search: group {b}: orbit about {:.3?}, radius {:.3}, axis {:.3?}, {:.3} rad per unit time, gain {gain:.2e} per view",
+                "orbit search: group {b}: orbit about {:.3?}, radius {:.3}, axis {:.3?}, {:.3} rad per unit time, spin {:.3?}, gain {gain:.2e} per view",
                 best.centre.to_array(),
                 (group.centroid - best.centre).norm(),
                 (best.omega * (1.0 / best.omega.norm())).to_array(),
                 best.omega.norm(),
+                best.spin.to_array(),
             ));
             found.push(Found {
                 group: group.clone(),
@@ -384,42 +355,13 @@ pub fn search(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::test_support::{canonical_poses, static_model, turned_view};
-    use crate::train::step::render_options;
+    use crate::motion::test_support::{
+        canonical_poses, orbit_test_cfg as cfg, side_camera, static_model, turned_view, two_groups,
+    };
+    use crate::train::step::{ViewData, render_options};
+    use evogs_math::Par;
     use evogs_math::Quat;
-    use evogs_splat::random_scene;
-
-    /// A scene of two groups: 200 Gaussians in a ball of radius 0.3 about the origin and 60 in
-    /// a ball of radius 0.06 about (0.6, 0, 0), and a camera on the +z axis.
-    fn two_groups() -> (Splats<f32>, evogs_splat::PinholeCamera<f32>) {
-        let (mut s, cam) = random_scene::<f32>(260, 48, 3, [0.02, 0.05], [0.7, 0.9]);
-        for (i, m) in s.means.iter_mut().enumerate() {
-            let (c, r) = if i < 200 {
-                (Vec3::zero(), 0.3)
-            } else {
-                (Vec3::new(0.6, 0.0, 0.0), 0.06)
-            };
-            // The uniform cube [−0.5, 0.5]³ shrunk to fit inside the ball.
-            *m = (c + m.cast::<f64>() * (r / 0.87)).cast();
-        }
-        (s, cam)
-    }
-
-    fn cfg() -> OrbitSearchConfig {
-        OrbitSearchConfig {
-            min_body: 20,
-            link: 0.15,
-            max_radius: 0.15,
-            centre_min_body: 100,
-            centre_max_radius: 0.5,
-            max_speed: 4.0,
-            speed_step: 0.5,
-            horizons: vec![0.15, 0.3, 0.6],
-            view_stride: 1,
-            min_gain: 0.0,
-            ..OrbitSearchConfig::default()
-        }
-    }
+    use evogs_splat::TiledRasterizer;
 
     #[test]
     fn an_orbit_turns_its_body_rigidly_about_the_centre() {
@@ -472,15 +414,7 @@ mod tests {
         let opts = render_options([1.0; 3], splats.sh_degree, Par::Seq);
         let mut rast = TiledRasterizer::new();
         // Every other view from the side, so that motion in depth shows too.
-        let side = evogs_splat::PinholeCamera::look_at(
-            Vec3::new(0.0, -4.0, 1.0),
-            Vec3::zero(),
-            Vec3::new(0.0, 0.0, 1.0),
-            40.0_f64.to_radians(),
-            48,
-            48,
-        )
-        .expect("a valid camera");
+        let side = side_camera();
         let views: Vec<ViewData<f32>> = (1..=12)
             .map(|k| {
                 let time = f64::from(k) * 0.05;
@@ -519,9 +453,13 @@ mod tests {
         assert_eq!(found.len(), 1, "{lines:#?}");
         let f = &found[0];
         assert_eq!(f.group.members.len(), 60);
-        assert!((f.orbit.centre - centre).norm() < 1e-12);
+        // The centre starts at the large group's centroid; the last local search moves it
+        // where the views fit better: here by about its first step (0.02).
+        assert!((f.orbit.centre - centre).norm() < 0.03, "{f:?}");
         // The last stage's step is 0.125 in speed, 0.21 rad per unit time at radius 0.6.
         assert!((f.orbit.omega - omega).norm() < 0.25, "{lines:#?}");
+        // The body turns with its orbit, and the spin search finds that too.
+        assert!((f.orbit.spin - omega).norm() < 0.25, "{lines:#?}");
         assert!(f.gain > 0.0 && (f.speed - 2.4).abs() < 0.15, "{f:?}");
         // With the groups' roles taken by a radius limit below the small group's, nothing
         // is searched.

@@ -315,6 +315,7 @@ mod tests {
             omega,
             rigid_rms: 0.0,
             range: (0.0, 1.0),
+            circle: None,
         }
     }
 

@@ -1,13 +1,16 @@
 //! What the searches' tests share: a small field, a static model, canonical poses and views
 //! of a scene with some of its Gaussians turned rigidly.
 
+use super::OrbitSearchConfig;
 use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use crate::model::{Model, Motion, Waypoints};
 use crate::train::step::ViewData;
 use evogs_math::so3::exp_quat;
 use evogs_math::{Quat, Vec3};
 use evogs_ode::Method;
-use evogs_splat::{PinholeCamera, RenderOptions, Splats, TiledRasterizer, render_tiled};
+use evogs_splat::{
+    PinholeCamera, RenderOptions, Splats, TiledRasterizer, random_scene, render_tiled,
+};
 
 /// A small zero-initialised field for the searches' tests.
 pub(crate) fn test_field() -> NeuralField<f32> {
@@ -74,5 +77,53 @@ pub(crate) fn turned_view(
         camera,
         time,
         image,
+    }
+}
+
+/// A scene of two groups: 200 Gaussians in a ball of radius 0.3 about the origin and 60 in
+/// a ball of radius 0.06 about (0.6, 0, 0), and a camera on the +z axis.
+pub(crate) fn two_groups() -> (Splats<f32>, PinholeCamera<f32>) {
+    let (mut s, cam) = random_scene::<f32>(260, 48, 3, [0.02, 0.05], [0.7, 0.9]);
+    for (i, m) in s.means.iter_mut().enumerate() {
+        let (c, r) = if i < 200 {
+            (Vec3::zero(), 0.3)
+        } else {
+            (Vec3::new(0.6, 0.0, 0.0), 0.06)
+        };
+        // The uniform cube [−0.5, 0.5]³ shrunk to fit inside the ball.
+        *m = (c + m.cast::<f64>() * (r / 0.87)).cast();
+    }
+    (s, cam)
+}
+
+/// A camera of [`two_groups`]'s size from the side (−y), so that motion in depth shows too.
+pub(crate) fn side_camera() -> PinholeCamera<f32> {
+    PinholeCamera::look_at(
+        Vec3::new(0.0, -4.0, 1.0),
+        Vec3::zero(),
+        Vec3::new(0.0, 0.0, 1.0),
+        40.0_f64.to_radians(),
+        48,
+        48,
+    )
+    .expect("a valid camera")
+}
+
+/// Orbit search settings for [`two_groups`].
+pub(crate) fn orbit_test_cfg() -> OrbitSearchConfig {
+    OrbitSearchConfig {
+        min_body: 20,
+        link: 0.15,
+        max_radius: 0.15,
+        centre_min_body: 100,
+        centre_max_radius: 0.5,
+        max_speed: 4.0,
+        speed_step: 0.5,
+        horizons: vec![0.15, 0.3, 0.6],
+        max_spin: 6.0,
+        spin_step: 1.0,
+        view_stride: 1,
+        min_gain: 0.0,
+        ..OrbitSearchConfig::default()
     }
 }

@@ -1,0 +1,113 @@
+//! Scoring candidate motions of one group by the photometric training loss, the candidates
+//! shared among the threads.
+
+use super::bodies::Body;
+use super::orbit::{Group, Orbit};
+use super::spin::{SearchContext, place};
+use crate::train::step::ViewData;
+use evogs_math::Par;
+use evogs_ode::Stepper;
+use evogs_splat::loss::photometric_loss;
+use evogs_splat::ssim::SsimWorkspace;
+use evogs_splat::{RenderOptions, Splats, TiledRasterizer, render_tiled};
+
+/// Per-worker buffers of [`score`].
+#[derive(Default)]
+struct Workspace {
+    rast: TiledRasterizer<f32>,
+    ssim: SsimWorkspace<f32>,
+    probe: Splats<f32>,
+}
+
+/// Photometric loss of `view` rendered from `st` with each of `bodies` placed in turn (with
+/// no bodies, of `st` itself).
+fn losses(
+    ctx: &SearchContext<'_>,
+    view: &ViewData<f32>,
+    st: &Splats<f32>,
+    bodies: &[Body],
+    ws: &mut Workspace,
+) -> Vec<f64> {
+    let opts = RenderOptions {
+        par: Par::Seq,
+        ..ctx.opts
+    };
+    let Workspace { rast, ssim, probe } = ws;
+    let mut loss = |s: &Splats<f32>| {
+        let r = render_tiled(s, &view.camera, &opts, rast);
+        f64::from(photometric_loss(ssim, &r.raster.rgb, &view.image, ctx.lambda, Par::Seq).total)
+    };
+    if bodies.is_empty() {
+        return vec![loss(st)];
+    }
+    // Every body overwrites all of its (the same) members, so one copy serves them all.
+    probe.clone_from(st);
+    bodies
+        .iter()
+        .map(|body| {
+            place(
+                probe,
+                body,
+                view.time,
+                1.0,
+                &ctx.p0,
+                &ctx.q0,
+                &ctx.log_scales,
+            );
+            loss(probe)
+        })
+        .collect()
+}
+
+/// Mean loss per view, over the views up to `horizon` (fraction of `range`), of the model with
+/// `group` moved along each of `orbits`; last, that of the model's own motion. Returns the
+/// losses and the number of views. With `ctx.par` parallel, the orbits are shared among the
+/// threads (each renders one at a time); the sums are in view order either way.
+pub(super) fn score(
+    model: &mut crate::model::Model<f32>,
+    ctx: &SearchContext<'_>,
+    group: &Group,
+    orbits: &[Orbit],
+    (range, horizon): ((f64, f64), f64),
+    stepper: &mut Option<Stepper<f32>>,
+) -> (Vec<f64>, usize) {
+    let mut st = Splats::default();
+    let bodies: Vec<Body> = orbits.iter().map(|o| o.body(group, range)).collect();
+    let workers = match ctx.par {
+        Par::Seq => 1,
+        #[cfg(feature = "rayon")]
+        Par::Rayon => rayon::current_num_threads().max(1),
+    };
+    let mut ws: Vec<Workspace> = (0..workers).map(|_| Workspace::default()).collect();
+    let chunk = bodies.len().div_ceil(workers);
+    let mut total = vec![0.0; bodies.len() + 1];
+    let mut count = 0usize;
+    for v in ctx
+        .views
+        .iter()
+        .filter(|v| v.time - range.0 <= horizon * range.1)
+    {
+        count += 1;
+        model.splats_at(v.time, stepper, &mut st);
+        // Last, the model's own motion.
+        total[bodies.len()] += losses(ctx, v, &st, &[], &mut ws[0])[0];
+        let per: Vec<Vec<f64>> = match ctx.par {
+            Par::Seq => vec![losses(ctx, v, &st, &bodies, &mut ws[0])],
+            #[cfg(feature = "rayon")]
+            Par::Rayon => {
+                use rayon::prelude::*;
+                bodies
+                    .par_chunks(chunk)
+                    .zip(ws.par_iter_mut())
+                    .map(|(b, w)| losses(ctx, v, &st, b, w))
+                    .collect()
+            }
+        };
+        for (t, l) in total.iter_mut().zip(per.iter().flatten()) {
+            *t += l;
+        }
+    }
+    #[allow(clippy::cast_precision_loss, reason = "a count")]
+    let inv = 1.0 / count.max(1) as f64;
+    (total.into_iter().map(|l| l * inv).collect(), count)
+}
