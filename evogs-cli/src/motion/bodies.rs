@@ -85,6 +85,21 @@ impl Paths {
     }
 }
 
+/// The path of a body's centroid.
+#[derive(Clone, Debug)]
+pub enum CentrePath {
+    /// The learnt centroid at each grid time, linear between them.
+    Sampled(Vec<Vec3<f64>>),
+    /// A circle: the centroid turns at `omega` about the axis through `centre`, from the
+    /// body's `c0` at the range's start.
+    Circle {
+        /// A point on the axis.
+        centre: Vec3<f64>,
+        /// Angular velocity (world frame, radians per unit time).
+        omega: Vec3<f64>,
+    },
+}
+
 /// A group of Gaussians moving together, and its learnt motion as a constant spin.
 #[derive(Clone, Debug)]
 pub struct Body {
@@ -96,17 +111,14 @@ pub struct Body {
     pub c0: Vec3<f64>,
     /// Largest distance of a moving one from `c0`.
     pub radius: f64,
-    /// Learnt centroid at each grid time.
-    pub centroid: Vec<Vec3<f64>>,
+    /// The centroid's path.
+    pub path: CentrePath,
     /// Fitted world-frame spin (radians per unit time).
     pub omega: Vec3<f64>,
     /// RMS distance of the members' learnt paths from the per-grid-time rigid fit.
     pub rigid_rms: f64,
     /// Start and length of the time range.
     pub range: (f64, f64),
-    /// An exact circular centroid path, `(p, Ω)`: the centroid turns at `Ω` about the axis
-    /// through `p`, from `c0` at the range's start. It replaces the sampled `centroid`.
-    pub circle: Option<(Vec3<f64>, Vec3<f64>)>,
 }
 
 impl Body {
@@ -114,15 +126,19 @@ impl Body {
     #[must_use]
     pub fn centre(&self, t: f64) -> (Vec3<f64>, Vec3<f64>) {
         let (t_lo, span) = self.range;
-        if let Some((p, w)) = self.circle {
-            let c = p + exp_quat(w * (t - t_lo)).rotate(self.c0 - p);
-            return (c, w.cross(c - p));
+        match &self.path {
+            CentrePath::Circle { centre, omega } => {
+                let c = *centre + exp_quat(*omega * (t - t_lo)).rotate(self.c0 - *centre);
+                (c, omega.cross(c - *centre))
+            }
+            CentrePath::Sampled(centroid) => {
+                let (k, f) = Paths::locate(t_lo, span, t);
+                let (a, b) = (centroid[k], centroid[k + 1]);
+                #[allow(clippy::cast_precision_loss, reason = "a small count")]
+                let rate = (b - a) * (GRID as f64 / span);
+                (a + (b - a) * f, rate)
+            }
         }
-        let (k, f) = Paths::locate(t_lo, span, t);
-        let (a, b) = (self.centroid[k], self.centroid[k + 1]);
-        #[allow(clippy::cast_precision_loss, reason = "a small count")]
-        let rate = (b - a) * (GRID as f64 / span);
-        (a + (b - a) * f, rate)
     }
 
     /// Position and orientation at `t`, with the spin multiplied by `s`, of a Gaussian at
@@ -309,11 +325,10 @@ pub fn find_bodies(paths: &Paths, p0: &[Vec3<f64>], cfg: &SpinSearchConfig) -> V
             moving: core.len(),
             c0,
             radius,
-            centroid,
+            path: CentrePath::Sampled(centroid),
             omega,
             rigid_rms,
             range: (paths.t_lo, paths.span),
-            circle: None,
         });
     }
     bodies

@@ -18,18 +18,17 @@
 //! by the photometric training loss of the views up to a short horizon (where a wrong rate
 //! costs little), then finer grids around the best over longer and longer horizons. The body
 //! need not turn with its orbit: its own spin is searched the same way, and a last local
-//! search refines every parameter ([`super::orbit_refine`]).
+//! search refines every parameter (the private module `orbit_refine`).
 //! [`crate::train::trainer::Trainer::orbit_search`] runs it at `[orbit_search] at_iter` and
 //! teaches the field the orbits found ([`super::spin::refit`]).
 
 use super::OrbitSearchConfig;
-use super::bodies::{Body, GRID, Paths, components};
+use super::bodies::{Body, CentrePath, components};
 use super::orbit_refine::{polish, spin_grid};
-use super::orbit_score::score;
+use super::orbit_score::pick;
 use super::spin::SearchContext;
 use evogs_math::Vec3;
 use evogs_math::activation::sigmoid;
-use evogs_math::so3::exp_quat;
 use evogs_ode::Stepper;
 
 /// A group of the canonical cloud: its Gaussians, centroid and radius.
@@ -115,27 +114,22 @@ impl Orbit {
     }
 
     /// `group` moving along this orbit from `range.0` over `range` (start, length), as a
-    /// [`Body`] (its centroid path exact, and also sampled on the grid), for placing its
-    /// members and for the field fit.
+    /// [`Body`] (its centroid path the exact circle), for placing its members and for the
+    /// field fit.
     #[must_use]
     pub fn body(&self, group: &Group, range: (f64, f64)) -> Body {
-        let c0 = group.centroid;
-        let centroid = (0..=GRID)
-            .map(|k| {
-                let t = Paths::grid_time(0.0, range.1, k);
-                self.centre + exp_quat(self.omega * t).rotate(c0 - self.centre)
-            })
-            .collect();
         Body {
             members: group.members.clone(),
             moving: group.members.len(),
-            c0,
+            c0: group.centroid,
             radius: group.radius,
-            centroid,
+            path: CentrePath::Circle {
+                centre: self.centre,
+                omega: self.omega,
+            },
             omega: self.spin,
             rigid_rms: 0.0,
             range,
-            circle: Some((self.centre, self.omega)),
         }
     }
 }
@@ -195,11 +189,6 @@ pub fn search(
     log: &mut dyn FnMut(&str),
 ) -> Vec<Found> {
     let mut found = Vec::new();
-    let argmin = |l: &[f64]| {
-        (0..l.len() - 1)
-            .min_by(|&i, &j| l[i].total_cmp(&l[j]))
-            .unwrap_or(0)
-    };
     for (b, group) in groups.iter().enumerate() {
         if group.radius > cfg.max_radius {
             continue;
@@ -237,7 +226,7 @@ pub fn search(
                     .map(move |v| Orbit::through(group.centroid, p, v))
             })
             .collect();
-        let (l, views) = score(
+        let first = pick(
             model,
             ctx,
             group,
@@ -245,8 +234,7 @@ pub fn search(
             (range, cfg.horizons[0]),
             stepper,
         );
-        let mut best = orbits[argmin(&l)];
-        let mut gain = l[orbits.len()] - l[argmin(&l)];
+        let (mut best, mut gain, views) = (first.orbit, first.gain, first.views);
         let velocity = |o: &Orbit| o.velocity_at(group.centroid);
         log(&format!(
             "orbit search: group {b}: {} orbits about {} centres over {views} views to {:.2}: best about {:.3?}, speed {:.3}, {:+.2e} per view",
@@ -273,13 +261,12 @@ pub fn search(
                     .into_iter()
                     .map(|s| best.with_spin(s)),
             );
-            let (l, views) = score(model, ctx, group, &cands, (range, cfg.horizons[0]), stepper);
-            let j = argmin(&l);
-            best = cands[j];
-            gain = l[cands.len()] - l[j];
+            let p = pick(model, ctx, group, &cands, (range, cfg.horizons[0]), stepper);
+            (best, gain) = (p.orbit, p.gain);
             log(&format!(
-                "orbit search: group {b}: {} spins over {views} views: spin {:.2?} (|{:.3}|), {:+.2e} per view",
+                "orbit search: group {b}: {} spins over {} views: spin {:.2?} (|{:.3}|), {:+.2e} per view",
                 cands.len(),
+                p.views,
                 best.spin.to_array(),
                 best.spin.norm(),
                 -gain
@@ -294,20 +281,17 @@ pub fn search(
                 velocity_grid(velocity(&best), group.centroid - best.centre, step, m)
                     .map(|v| Orbit::through(group.centroid, best.centre, v).with_spin(best.spin))
                     .collect();
-            let (l, views) = score(model, ctx, group, &local, (range, h), stepper);
-            let j = argmin(&l);
-            best = local[j];
-            gain = l[local.len()] - l[j];
+            let p = pick(model, ctx, group, &local, (range, h), stepper);
+            let views = p.views;
+            (best, gain) = (p.orbit, p.gain);
             if spins {
                 spin_step *= 0.5;
                 let local: Vec<Orbit> = spin_grid(best.spin, spin_step, 1, f64::INFINITY)
                     .into_iter()
                     .map(|s| best.with_spin(s))
                     .collect();
-                let (l, _) = score(model, ctx, group, &local, (range, h), stepper);
-                let j = argmin(&l);
-                best = local[j];
-                gain = l[local.len()] - l[j];
+                let p = pick(model, ctx, group, &local, (range, h), stepper);
+                (best, gain) = (p.orbit, p.gain);
             }
             log(&format!(
                 "orbit search: group {b}: horizon {h:.2} ({views} views), step {step:.4}: speed {:.3}, |ω| {:.3}, spin {:.2?}, {:+.2e} per view",
@@ -355,12 +339,16 @@ pub fn search(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::motion::bodies::Paths;
+    use crate::motion::orbit_score::score;
     use crate::motion::test_support::{
-        canonical_poses, orbit_test_cfg as cfg, side_camera, static_model, turned_view, two_groups,
+        canonical_poses, orbit_test_cfg as cfg, static_model, test_context, turned_view,
+        two_camera_views, two_groups,
     };
-    use crate::train::step::{ViewData, render_options};
+    use crate::train::step::render_options;
     use evogs_math::Par;
     use evogs_math::Quat;
+    use evogs_math::so3::exp_quat;
     use evogs_splat::TiledRasterizer;
 
     #[test]
@@ -390,7 +378,7 @@ mod tests {
             let t = Paths::grid_time(0.25, 2.0, k);
             let turn = exp_quat(o.omega * (t - 0.25));
             let (x, q) = body.pose(t, 1.0, p0, q0);
-            // At the grid times the pose is exact: distances to the centre are kept.
+            // The pose is exact: distances to the centre are kept.
             assert!(
                 (x - (centre + turn.rotate(p0 - centre))).norm() < 1e-12,
                 "{k}"
@@ -403,7 +391,7 @@ mod tests {
     #[test]
     fn the_search_finds_the_orbit_the_views_show() {
         let (splats, camera) = two_groups();
-        let (p0, q0) = canonical_poses(&splats);
+        let (p0, _) = canonical_poses(&splats);
         let groups = canonical_groups(&p0, &splats.opacity_logits, &cfg());
         assert_eq!(
             groups.iter().map(|g| g.members.len()).collect::<Vec<_>>(),
@@ -413,33 +401,19 @@ mod tests {
         let (centre, omega) = (groups[0].centroid, Vec3::new(0.0, 0.0, 4.0));
         let opts = render_options([1.0; 3], splats.sh_degree, Par::Seq);
         let mut rast = TiledRasterizer::new();
-        // Every other view from the side, so that motion in depth shows too.
-        let side = side_camera();
-        let views: Vec<ViewData<f32>> = (1..=12)
-            .map(|k| {
-                let time = f64::from(k) * 0.05;
-                let camera = if k % 2 == 0 { camera } else { side };
-                turned_view(
-                    &splats,
-                    200..260,
-                    (centre, omega),
-                    time,
-                    camera,
-                    &opts,
-                    &mut rast,
-                )
-            })
-            .collect();
+        let views = two_camera_views(camera, |time, camera| {
+            turned_view(
+                &splats,
+                200..260,
+                (centre, omega),
+                time,
+                camera,
+                &opts,
+                &mut rast,
+            )
+        });
         let mut model = static_model(&splats);
-        let mut ctx = SearchContext {
-            views: views.iter().collect(),
-            opts,
-            lambda: 0.2,
-            p0,
-            q0,
-            log_scales: splats.log_scales.clone(),
-            par: Par::Seq,
-        };
+        let mut ctx = test_context(&views, &splats, opts);
         let mut lines = Vec::new();
         let found = search(
             &mut model,

@@ -11,7 +11,7 @@
 //! while one improves and halves the steps when none does.
 
 use super::orbit::{Group, Orbit, plane_basis};
-use super::orbit_score::score;
+use super::orbit_score::pick;
 use super::spin::SearchContext;
 use crate::model::Model;
 use evogs_math::Vec3;
@@ -43,11 +43,12 @@ fn per_parameter([centre, velocity, spin]: [f64; 3]) -> [f64; PARAMS] {
     [centre, centre, centre, velocity, velocity, spin, spin, spin]
 }
 
-/// The 16 neighbours of `o` for the body centred at `c0`, parameter `j` moved by `+steps[j]`
-/// (index `j`) or `−steps[j]` (index `PARAMS + j`): the centre along each axis (the
-/// centroid's velocity kept), the velocity along the two directions perpendicular to
-/// `c0 − centre`, and the spin along each axis.
-pub(super) fn neighbours(o: &Orbit, c0: Vec3<f64>, steps: [f64; PARAMS]) -> Vec<Orbit> {
+/// The neighbours of `o` for the body centred at `c0`, each with the parameter it moves:
+/// parameter `j` moved by `+steps[j]`, then (after all of those) by `−steps[j]`, for every
+/// `j` whose step is not zero. The parameters are the centre along each axis (the centroid's
+/// velocity kept), the velocity along the two directions perpendicular to `c0 − centre`,
+/// and the spin along each axis.
+pub(super) fn neighbours(o: &Orbit, c0: Vec3<f64>, steps: [f64; PARAMS]) -> Vec<(usize, Orbit)> {
     let v = o.velocity_at(c0);
     let axes = [
         Vec3::new(1.0, 0.0, 0.0),
@@ -55,29 +56,25 @@ pub(super) fn neighbours(o: &Orbit, c0: Vec3<f64>, steps: [f64; PARAMS]) -> Vec<
         Vec3::new(0.0, 0.0, 1.0),
     ];
     let (e1, e2) = plane_basis(c0 - o.centre);
-    let mut out = Vec::with_capacity(2 * PARAMS);
-    for sign in [1.0, -1.0] {
-        for (j, e) in axes.into_iter().enumerate() {
-            let centre = o.centre + e * (sign * steps[j]);
-            out.push(Orbit::through(c0, centre, v).with_spin(o.spin));
-        }
-        for (j, e) in [e1, e2].into_iter().enumerate() {
-            let v = v + e * (sign * steps[3 + j]);
-            out.push(Orbit::through(c0, o.centre, v).with_spin(o.spin));
-        }
-        for (j, e) in axes.into_iter().enumerate() {
-            out.push(o.with_spin(o.spin + e * (sign * steps[5 + j])));
-        }
-    }
-    out
+    let moved = |j: usize, d: f64| match j {
+        0..=2 => Orbit::through(c0, o.centre + axes[j] * d, v).with_spin(o.spin),
+        3 | 4 => Orbit::through(c0, o.centre, v + [e1, e2][j - 3] * d).with_spin(o.spin),
+        _ => o.with_spin(o.spin + axes[j - 5] * d),
+    };
+    [1.0, -1.0]
+        .into_iter()
+        .flat_map(|sign| (0..PARAMS).map(move |j| (j, sign * steps[j])))
+        .filter(|&(_, d)| d != 0.0)
+        .map(|(j, d)| (j, moved(j, d)))
+        .collect()
 }
 
 /// The compass search from `start` over `rounds` rounds, with the initial `steps` of the
 /// centre, the velocity and the spin, scored over the views up to `horizon` (fraction of
-/// `range`, start and length). Each round moves to the best of the 16 [`neighbours`] if it
-/// beats the current orbit and doubles that parameter's step (so a long way is covered in
-/// few rounds), or else halves every step. Returns the orbit and its gain (mean loss per view
-/// below the model's own motion).
+/// `range`, start and length). Each round moves to the best of the [`neighbours`] (16 when
+/// no step is zero) if it beats the current orbit and doubles that parameter's step (so a
+/// long way is covered in few rounds), or else halves every step. Returns the orbit and its
+/// gain (mean loss per view below the model's own motion).
 #[allow(clippy::too_many_arguments, reason = "the search's whole state")]
 pub(super) fn polish(
     model: &mut Model<f32>,
@@ -85,7 +82,7 @@ pub(super) fn polish(
     group: &Group,
     start: Orbit,
     (steps, rounds): ([f64; 3], usize),
-    (range, horizon): ((f64, f64), f64),
+    range_horizon: ((f64, f64), f64),
     stepper: &mut Option<Stepper<f32>>,
     log: &mut dyn FnMut(&str),
 ) -> (Orbit, f64) {
@@ -93,22 +90,21 @@ pub(super) fn polish(
     let mut best = start;
     let mut gain = f64::NEG_INFINITY;
     for round in 0..rounds {
+        let moves = neighbours(&best, group.centroid, steps);
         let mut cands = vec![best];
-        cands.extend(neighbours(&best, group.centroid, steps));
-        let (l, views) = score(model, ctx, group, &cands, (range, horizon), stepper);
-        let j = (0..cands.len())
-            .min_by(|&i, &j| l[i].total_cmp(&l[j]))
-            .unwrap_or(0);
-        gain = l[cands.len()] - l[j];
-        let moved = j != 0;
+        cands.extend(moves.iter().map(|&(_, o)| o));
+        let p = pick(model, ctx, group, &cands, range_horizon, stepper);
+        gain = p.gain;
+        let moved = p.index != 0;
         if moved {
-            best = cands[j];
-            steps[(j - 1) % PARAMS] *= 2.0;
+            best = p.orbit;
+            steps[moves[p.index - 1].0] *= 2.0;
         } else {
             steps = steps.map(|s| s * 0.5);
         }
         log(&format!(
-            "orbit search: polish round {round} ({views} views): {}, centre {:.3?}, |Ω| {:.3}, spin {:.2?}, {:+.2e} per view",
+            "orbit search: polish round {round} ({} views): {}, centre {:.3?}, |Ω| {:.3}, spin {:.2?}, {:+.2e} per view",
+            p.views,
             if moved { "moved" } else { "steps halved" },
             best.centre.to_array(),
             best.omega.norm(),
@@ -125,11 +121,12 @@ mod tests {
     use crate::motion::orbit::{canonical_groups, search};
     use crate::motion::spin::place;
     use crate::motion::test_support::{
-        canonical_poses, orbit_test_cfg, side_camera, static_model, two_groups,
+        canonical_poses, orbit_test_cfg, rendered_view, static_model, test_context,
+        two_camera_views, two_groups,
     };
-    use crate::train::step::{ViewData, render_options};
+    use crate::train::step::render_options;
     use evogs_math::Par;
-    use evogs_splat::{TiledRasterizer, render_tiled};
+    use evogs_splat::TiledRasterizer;
 
     #[test]
     fn the_search_finds_a_tumbling_body_s_own_spin() {
@@ -155,34 +152,13 @@ mod tests {
         let body = truth.body(&groups[1], (0.0, 1.0));
         let opts = render_options([1.0; 3], splats.sh_degree, Par::Seq);
         let mut rast = TiledRasterizer::new();
-        let side = side_camera();
-        let views: Vec<ViewData<f32>> = (1..=12)
-            .map(|k| {
-                let time = f64::from(k) * 0.05;
-                let camera = if k % 2 == 0 { camera } else { side };
-                let mut st = splats.clone();
-                place(&mut st, &body, time, 1.0, &p0, &q0, &splats.log_scales);
-                let image = render_tiled(&st, &camera, &opts, &mut rast)
-                    .raster
-                    .rgb
-                    .clone();
-                ViewData {
-                    camera,
-                    time,
-                    image,
-                }
-            })
-            .collect();
+        let views = two_camera_views(camera, |time, camera| {
+            let mut st = splats.clone();
+            place(&mut st, &body, time, 1.0, &p0, &q0, &splats.log_scales);
+            rendered_view(&st, camera, time, &opts, &mut rast)
+        });
         let mut model = static_model(&splats);
-        let ctx = SearchContext {
-            views: views.iter().collect(),
-            opts,
-            lambda: 0.2,
-            p0,
-            q0,
-            log_scales: splats.log_scales.clone(),
-            par: Par::Seq,
-        };
+        let ctx = test_context(&views, &splats, opts);
         let mut lines = Vec::new();
         let mut run = |cfg: &crate::motion::OrbitSearchConfig| {
             search(
@@ -228,13 +204,14 @@ mod tests {
         let n = neighbours(&o, c0, per_parameter([0.01, 0.1, 0.5]));
         assert_eq!(n.len(), 16);
         let v = o.velocity_at(c0);
-        for (k, m) in n.iter().enumerate() {
+        for (k, &(j, ref m)) in n.iter().enumerate() {
+            assert_eq!(j, k % PARAMS);
             let (dc, dv, ds) = (
                 (m.centre - o.centre).norm(),
                 (m.velocity_at(c0) - v).norm(),
                 (m.spin - o.spin).norm(),
             );
-            match k % PARAMS {
+            match j {
                 0..=2 => {
                     // The centre moved; the velocity is kept up to its part along the new
                     // radius, which an orbit cannot have.
@@ -249,5 +226,10 @@ mod tests {
                 _ => assert!(dc == 0.0 && dv < 1e-12 && (ds - 0.5).abs() < 1e-12, "{k}"),
             }
         }
+        // A parameter whose step is zero is not moved (no copies of `o` to score).
+        assert_eq!(
+            neighbours(&o, c0, per_parameter([0.01, 0.1, 0.0])).len(),
+            10
+        );
     }
 }

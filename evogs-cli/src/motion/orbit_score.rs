@@ -111,3 +111,36 @@ pub(super) fn score(
     let inv = 1.0 / count.max(1) as f64;
     (total.into_iter().map(|l| l * inv).collect(), count)
 }
+
+/// The best of `orbits` by [`score`] over the views up to `horizon` (fraction of `range`).
+pub(super) struct Pick {
+    /// Its index in `orbits`.
+    pub index: usize,
+    /// The orbit.
+    pub orbit: Orbit,
+    /// Its mean loss per view below the model's own motion.
+    pub gain: f64,
+    /// The number of views scored.
+    pub views: usize,
+}
+
+/// Scores `orbits` (not empty) and picks the best; of equal losses, the first.
+pub(super) fn pick(
+    model: &mut crate::model::Model<f32>,
+    ctx: &SearchContext<'_>,
+    group: &Group,
+    orbits: &[Orbit],
+    range_horizon: ((f64, f64), f64),
+    stepper: &mut Option<Stepper<f32>>,
+) -> Pick {
+    let (l, views) = score(model, ctx, group, orbits, range_horizon, stepper);
+    let index = (0..orbits.len())
+        .min_by(|&i, &j| l[i].total_cmp(&l[j]))
+        .unwrap_or(0);
+    Pick {
+        index,
+        orbit: orbits[index],
+        gain: l[orbits.len()] - l[index],
+        views,
+    }
+}

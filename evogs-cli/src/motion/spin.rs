@@ -293,9 +293,9 @@ pub fn refit(
 mod tests {
     use super::*;
     use crate::model::{Motion, Waypoints};
-    use crate::motion::bodies::GRID;
+    use crate::motion::bodies::{CentrePath, GRID};
     use crate::motion::test_support::{
-        canonical_poses, static_model, test_field as field, turned_view,
+        canonical_poses, static_model, test_context, test_field as field, turned_view,
     };
     use crate::train::step::render_options;
     use evogs_ode::Method;
@@ -311,11 +311,10 @@ mod tests {
             moving: p0.len(),
             c0,
             radius: p0.iter().map(|p| (*p - c0).norm()).fold(0.0, f64::max),
-            centroid: vec![c0; GRID + 1],
+            path: CentrePath::Sampled(vec![c0; GRID + 1]),
             omega,
             rigid_rms: 0.0,
             range: (0.0, 1.0),
-            circle: None,
         }
     }
 
@@ -324,7 +323,6 @@ mod tests {
         // Views of a scene spinning at `omega`; the model's learnt motion is half of it.
         let (splats, camera) = random_scene::<f32>(300, 48, 5, [0.03, 0.08], [0.6, 0.9]);
         let omega = Vec3::new(0.4, -0.3, 2.0);
-        let (p0, q0) = canonical_poses(&splats);
         let truth = body_of(&splats, omega, splats.len());
         let opts = render_options([1.0; 3], splats.sh_degree, Par::Seq);
         let mut rast = TiledRasterizer::new();
@@ -344,15 +342,7 @@ mod tests {
             })
             .collect();
         let mut model = static_model(&splats);
-        let ctx = SearchContext {
-            views: views.iter().collect(),
-            opts,
-            lambda: 0.2,
-            p0,
-            q0,
-            log_scales: splats.log_scales.clone(),
-            par: Par::Seq,
-        };
+        let ctx = test_context(&views, &splats, opts);
         let bodies = [body_of(&splats, omega * 0.5, splats.len())];
         let cfg = SpinSearchConfig {
             max_radius: 2.0,

@@ -2,9 +2,11 @@
 //! of a scene with some of its Gaussians turned rigidly.
 
 use super::OrbitSearchConfig;
+use super::spin::SearchContext;
 use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use crate::model::{Model, Motion, Waypoints};
 use crate::train::step::ViewData;
+use evogs_math::Par;
 use evogs_math::so3::exp_quat;
 use evogs_math::{Quat, Vec3};
 use evogs_ode::Method;
@@ -72,12 +74,56 @@ pub(crate) fn turned_view(
         st.means[i] = (centre + turn.rotate(p - centre)).cast();
         st.quats[i] = turn.mul_quat(q).cast();
     }
-    let image = render_tiled(&st, &camera, opts, rast).raster.rgb.clone();
+    rendered_view(&st, camera, time, opts, rast)
+}
+
+/// The view at `time` from `camera` of `st` as it is.
+pub(crate) fn rendered_view(
+    st: &Splats<f32>,
+    camera: PinholeCamera<f32>,
+    time: f64,
+    opts: &RenderOptions<f32>,
+    rast: &mut TiledRasterizer<f32>,
+) -> ViewData<f32> {
+    let image = render_tiled(st, &camera, opts, rast).raster.rgb.clone();
     ViewData {
         camera,
         time,
         image,
     }
+}
+
+/// A search context over `views` of `splats` (sequential, D-SSIM weight 0.2).
+pub(crate) fn test_context<'a>(
+    views: &'a [ViewData<f32>],
+    splats: &Splats<f32>,
+    opts: RenderOptions<f32>,
+) -> SearchContext<'a> {
+    let (p0, q0) = canonical_poses(splats);
+    SearchContext {
+        views: views.iter().collect(),
+        opts,
+        lambda: 0.2,
+        p0,
+        q0,
+        log_scales: splats.log_scales.clone(),
+        par: Par::Seq,
+    }
+}
+
+/// The orbit tests' views: times 0.05, 0.10, …, 0.60, every other one from [`side_camera`]
+/// (so that motion in depth shows too) and the rest from `camera`; `view` renders each.
+pub(crate) fn two_camera_views(
+    camera: PinholeCamera<f32>,
+    mut view: impl FnMut(f64, PinholeCamera<f32>) -> ViewData<f32>,
+) -> Vec<ViewData<f32>> {
+    let side = side_camera();
+    (1..=12)
+        .map(|k| {
+            let time = f64::from(k) * 0.05;
+            view(time, if k % 2 == 0 { camera } else { side })
+        })
+        .collect()
 }
 
 /// A scene of two groups: 200 Gaussians in a ball of radius 0.3 about the origin and 60 in
