@@ -19,6 +19,7 @@
 //! lost, circling a larger one (`[orbit_search]`).
 
 pub mod bodies;
+mod body_fit;
 pub mod orbit;
 mod orbit_refine;
 mod orbit_score;
@@ -154,6 +155,19 @@ pub struct OrbitSearchConfig {
     /// Its first step of the centre (scene units); those of the velocity and the spin are
     /// the last stage's.
     pub polish_step: f64,
+    /// Adam steps of each refit of the body's canonical Gaussians and own spin, after the
+    /// global spin grid (0: none). The grid's `refit_candidates` best spins (and turning with
+    /// the orbit) are each refitted over the views to `refit_horizon`, and the best refit is
+    /// kept: a body fitted to the warm-up's one or two views shows little of its spin until
+    /// its shape is fitted to views from elsewhere (the private module `body_fit`).
+    pub refit_iters: usize,
+    /// How many of the spin grid's best spins are refitted.
+    pub refit_candidates: usize,
+    /// Horizon of those refits (fraction of the time range).
+    pub refit_horizon: f64,
+    /// Adam steps of a last refit of the body and its spin over the views to the last
+    /// horizon, after the compass search (0: none).
+    pub final_refit_iters: usize,
     /// Every this-many-th training view enters the loss.
     pub view_stride: usize,
     /// Smallest gain (mean loss per view below the learnt motion's, over the views to the
@@ -186,6 +200,10 @@ impl Default for OrbitSearchConfig {
             spin_step: 2.0,
             polish_rounds: 6,
             polish_step: 0.02,
+            refit_iters: 0,
+            refit_candidates: 16,
+            refit_horizon: 0.25,
+            final_refit_iters: 0,
             view_stride: 2,
             min_gain: 1e-4,
             fit_iters: 1000,
@@ -228,6 +246,10 @@ impl OrbitSearchConfig {
         chk(
             self.polish_step >= 0.0 && self.polish_step.is_finite(),
             "orbit_search.polish_step must be a non-negative number",
+        )?;
+        chk(
+            self.refit_horizon > 0.0 && self.refit_horizon <= 1.0 && self.refit_candidates >= 1,
+            "orbit_search.refit_horizon must be a fraction in (0, 1] and refit_candidates at least 1",
         )?;
         chk(
             self.fit_jitter >= 0.0 && self.fit_jitter.is_finite(),
@@ -280,6 +302,8 @@ mod tests {
             "max_spin = -1.0",
             "spin_step = 0.0",
             "polish_step = -0.1",
+            "refit_horizon = 0.0",
+            "refit_candidates = 0",
         ] {
             let c = c
                 .merge_toml(&format!("[orbit_search]\n{bad}\n"))

@@ -18,12 +18,16 @@
 //! by the photometric training loss of the views up to a short horizon (where a wrong rate
 //! costs little), then finer grids around the best over longer and longer horizons. The body
 //! need not turn with its orbit: its own spin is searched the same way, and a last local
-//! search refines every parameter (the private module `orbit_refine`).
+//! search refines every parameter (the private module `orbit_refine`). A body fitted to few
+//! views shows little of its spin, so with `refit_iters` set the spin grid's best candidates
+//! are each refitted, the body's canonical Gaussians, spin and orbit fitted together by
+//! gradient descent, and the best refit is kept (the private module `body_fit`).
 //! [`crate::train::trainer::Trainer::orbit_search`] runs it at `[orbit_search] at_iter` and
 //! teaches the field the orbits found ([`super::spin::refit`]).
 
 use super::OrbitSearchConfig;
 use super::bodies::{Body, CentrePath, components};
+use super::body_fit::adopt_best_refit;
 use super::orbit_refine::{polish, spin_grid};
 use super::orbit_score::pick;
 use super::spin::SearchContext;
@@ -181,7 +185,7 @@ pub struct Found {
 /// `cfg.min_gain`. A body whose best first-horizon velocity is zero is left as learnt.
 pub fn search(
     model: &mut crate::model::Model<f32>,
-    ctx: &SearchContext<'_>,
+    ctx: &mut SearchContext<'_>,
     groups: &[Group],
     range: (f64, f64),
     cfg: &OrbitSearchConfig,
@@ -271,6 +275,28 @@ pub fn search(
                 best.spin.norm(),
                 -gain
             ));
+            if cfg.refit_iters > 0 {
+                // The grid's best spins (and turning with the orbit), each refitted.
+                let mut order: Vec<usize> = (0..cands.len()).collect();
+                order.sort_by(|&i, &j| p.losses[i].total_cmp(&p.losses[j]));
+                let mut starts: Vec<Vec3<f64>> = order
+                    .iter()
+                    .take(cfg.refit_candidates)
+                    .map(|&i| cands[i].spin)
+                    .collect();
+                if !starts.contains(&cands[0].spin) {
+                    starts.push(cands[0].spin);
+                }
+                best = adopt_best_refit(
+                    model,
+                    ctx,
+                    (group, best, range),
+                    &starts,
+                    (cfg.refit_horizon, cfg.refit_iters),
+                    stepper,
+                    log,
+                );
+            }
         }
         let mut step = cfg.speed_step;
         for &h in &cfg.horizons[1..] {
@@ -314,6 +340,19 @@ pub fn search(
                 stepper,
                 log,
             );
+        }
+        if spins && cfg.final_refit_iters > 0 {
+            let last = cfg.horizons[cfg.horizons.len() - 1];
+            best = adopt_best_refit(
+                model,
+                ctx,
+                (group, best, range),
+                &[best.spin],
+                (last, cfg.final_refit_iters),
+                stepper,
+                log,
+            );
+            gain = pick(model, ctx, group, &[best], (range, last), stepper).gain;
         }
         let speed = velocity(&best).norm();
         if gain >= cfg.min_gain {
@@ -417,7 +456,7 @@ mod tests {
         let mut lines = Vec::new();
         let found = search(
             &mut model,
-            &ctx,
+            &mut ctx,
             &groups,
             (0.0, 1.0),
             &cfg(),
@@ -439,7 +478,7 @@ mod tests {
         // is searched.
         let none = search(
             &mut model,
-            &ctx,
+            &mut ctx,
             &groups,
             (0.0, 1.0),
             &OrbitSearchConfig {

@@ -158,12 +158,12 @@ mod tests {
             rendered_view(&st, camera, time, &opts, &mut rast)
         });
         let mut model = static_model(&splats);
-        let ctx = test_context(&views, &splats, opts);
+        let mut ctx = test_context(&views, &splats, opts);
         let mut lines = Vec::new();
         let mut run = |cfg: &crate::motion::OrbitSearchConfig| {
             search(
                 &mut model,
-                &ctx,
+                &mut ctx,
                 &groups,
                 (0.0, 1.0),
                 cfg,

@@ -122,6 +122,8 @@ pub(super) struct Pick {
     pub gain: f64,
     /// The number of views scored.
     pub views: usize,
+    /// Every orbit's mean loss per view, in `orbits`' order.
+    pub losses: Vec<f64>,
 }
 
 /// Scores `orbits` (not empty) and picks the best; of equal losses, the first.
@@ -133,14 +135,16 @@ pub(super) fn pick(
     range_horizon: ((f64, f64), f64),
     stepper: &mut Option<Stepper<f32>>,
 ) -> Pick {
-    let (l, views) = score(model, ctx, group, orbits, range_horizon, stepper);
+    let (mut l, views) = score(model, ctx, group, orbits, range_horizon, stepper);
     let index = (0..orbits.len())
         .min_by(|&i, &j| l[i].total_cmp(&l[j]))
         .unwrap_or(0);
+    let own = l.pop().unwrap_or(0.0);
     Pick {
         index,
         orbit: orbits[index],
-        gain: l[orbits.len()] - l[index],
+        gain: own - l[index],
         views,
+        losses: l,
     }
 }

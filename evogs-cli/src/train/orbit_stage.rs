@@ -24,7 +24,7 @@ impl Trainer {
         let cfg = self.cfg.orbit_search.clone();
         let start = Instant::now();
         let mut stepper = None;
-        let ctx = search_context(
+        let mut ctx = search_context(
             &self.views,
             cfg.view_stride,
             &self.model.canonical,
@@ -43,7 +43,7 @@ impl Trainer {
         let range = (self.time_range.0, self.time_range.1 - self.time_range.0);
         let found = search(
             &mut self.model,
-            &ctx,
+            &mut ctx,
             &groups,
             range,
             &cfg,

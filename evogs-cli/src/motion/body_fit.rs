@@ -1,0 +1,459 @@
+//! Refitting a body on its orbit: its canonical Gaussians and its own spin fitted together to
+//! the views, so that spins are compared by how well the body *can* fit the views turning that
+//! way, not by how a canonical fitted to one or two views happens to look turned.
+//!
+//! At the orbit search's time (just after the static warm-up) a small fast body has been
+//! fitted to the one or two views of the warm-up's window, so its depth is hardly fixed, and
+//! turning it shows little of how it looks from elsewhere (README, "The torus"). A refit is
+//! the small bundle adjustment that fixes it: with the orbit's centroid path held, the
+//! members' canonical parameters, the body's spin and its orbit (centre and angular velocity)
+//! are fitted by Adam to the views up to a horizon, one view per step; the spin that fits best
+//! after its refit wins.
+//!
+//! Conventions: quaternions `(w, x, y, z)` turn body to world; the spin `s` is world-frame
+//! (radians per unit time). A member with canonical position `p` and raw quaternion `q` is,
+//! at elapsed time `τ = t − t₀`,
+//!
+//! ```text
+//! x(τ) = c(τ) + U (p − c₀),   q(τ) = U ⊗ q,   U = exp(τ s)
+//! ```
+//!
+//! with `c(τ) = o + exp(τ Ω)(c₀ − o)` the orbit's circle (centre `o`, angular velocity `Ω`)
+//! through the body's centroid `c₀`. The rotations' gradients go through left perturbations
+//! `U ← exp(δ) U`: `∂L/∂δ = (U r) × ∂L/∂x + ½ vec(∂L/∂q ⊗ (U q)*)` per member (`r = p − c₀`),
+//! and `∂L/∂s = τ Jₗ(τ s)ᵀ ∂L/∂δ` ([`member_pose_vjp`]); the same for `Ω` with the sum of the
+//! members' position cotangents ([`circle_point_vjp`]).
+
+use super::orbit::{Group, Orbit};
+use super::spin::SearchContext;
+use crate::model::Model;
+use crate::train::adam::{Adam, AdamState};
+use crate::train::step::ViewData;
+use evogs_math::rng::SplitMix64;
+use evogs_math::so3::exp_quat;
+use evogs_math::so3_jacobians::left_jacobian;
+use evogs_math::{Par, Quat, Real, Vec3};
+use evogs_ode::Stepper;
+use evogs_splat::loss::{photometric_loss, photometric_loss_and_grad};
+use evogs_splat::ssim::SsimWorkspace;
+use evogs_splat::{
+    Image, PixelGrad, RenderOptions, Splats, TiledRasterizer, render_tiled, render_tiled_vjp,
+};
+
+/// Adam rates of a refit (per step, before the decay): positions (scene units), raw
+/// quaternions, log-scales, opacity logits, SH coefficients.
+const RATES: [f64; 5] = [1e-3, 2e-3, 5e-3, 0.05, 2.5e-3];
+/// Adam rates of the orbit's centre (scene units), angular velocity and the body's spin
+/// (radians per unit time).
+const ORBIT_RATES: [f64; 3] = [1e-3, 0.02, 0.05];
+/// The rates fall exponentially to this fraction of themselves over a refit.
+const FINAL_RATE: f64 = 0.1;
+/// Seed of the views' order.
+const ORDER_SEED: u64 = 23;
+
+/// A body's members' canonical parameters (in the order of its members) and its orbit.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct BodyParams {
+    /// The members' canonical Gaussians.
+    pub splats: Splats<f32>,
+    /// Its orbit and own spin.
+    pub orbit: Orbit,
+}
+
+impl BodyParams {
+    /// The `members` of `canonical`, on `orbit`.
+    pub(super) fn gather(canonical: &Splats<f32>, members: &[usize], orbit: Orbit) -> Self {
+        let mut splats = Splats::new(canonical.sh_degree);
+        for &i in members {
+            splats.push(
+                canonical.means[i],
+                canonical.log_scales[i],
+                canonical.quats[i],
+                canonical.opacity_logits[i],
+                canonical.sh_coeffs(i),
+            );
+        }
+        Self { splats, orbit }
+    }
+
+    /// Writes the members back into `canonical` and the search's canonical poses.
+    pub(super) fn scatter(
+        &self,
+        members: &[usize],
+        canonical: &mut Splats<f32>,
+        ctx: &mut SearchContext,
+    ) {
+        for (j, &i) in members.iter().enumerate() {
+            let s = &self.splats;
+            canonical.means[i] = s.means[j];
+            canonical.log_scales[i] = s.log_scales[j];
+            canonical.quats[i] = s.quats[j];
+            canonical.opacity_logits[i] = s.opacity_logits[j];
+            canonical.sh_coeffs_mut(i).copy_from_slice(s.sh_coeffs(j));
+            ctx.p0[i] = s.means[j].cast();
+            ctx.q0[i] = s.quats[j].normalize().cast();
+            ctx.log_scales[i] = s.log_scales[j];
+        }
+    }
+}
+
+/// The views a refit sees, each with the model's own state at its time (which the body's
+/// members overwrite).
+pub(super) struct Frames<'v> {
+    views: Vec<&'v ViewData<f32>>,
+    states: Vec<Splats<f32>>,
+}
+
+impl<'v> Frames<'v> {
+    /// The views of `ctx` up to `horizon` (fraction of `range`, start and length).
+    pub(super) fn new(
+        model: &mut Model<f32>,
+        ctx: &SearchContext<'v>,
+        (range, horizon): ((f64, f64), f64),
+        stepper: &mut Option<Stepper<f32>>,
+    ) -> Self {
+        let views: Vec<&ViewData<f32>> = ctx
+            .views
+            .iter()
+            .copied()
+            .filter(|v| v.time - range.0 <= horizon * range.1)
+            .collect();
+        let states = views
+            .iter()
+            .map(|v| {
+                let mut st = Splats::default();
+                model.splats_at(v.time, stepper, &mut st);
+                st
+            })
+            .collect();
+        Self { views, states }
+    }
+
+    /// Number of views.
+    pub(super) fn len(&self) -> usize {
+        self.views.len()
+    }
+}
+
+/// A member's position and raw quaternion at elapsed time `tau` (module doc): centroid `c`
+/// on its path, canonical centroid `c0`, canonical position `p` and raw quaternion `q`.
+pub(super) fn member_pose<T: Real>(
+    (c, c0): (Vec3<T>, Vec3<T>),
+    spin: Vec3<T>,
+    tau: T,
+    p: Vec3<T>,
+    q: Quat<T>,
+) -> (Vec3<T>, Quat<T>) {
+    let u = exp_quat(spin * tau);
+    (c + u.rotate(p - c0), u.mul_quat(q))
+}
+
+/// The VJP of [`member_pose`] with respect to `p`, `q` and `spin`, given the cotangents of
+/// the position `gx` and of the quaternion `gq`.
+pub(super) fn member_pose_vjp<T: Real>(
+    c0: Vec3<T>,
+    spin: Vec3<T>,
+    tau: T,
+    (p, q): (Vec3<T>, Quat<T>),
+    (gx, gq): (Vec3<T>, Quat<T>),
+) -> (Vec3<T>, Quat<T>, Vec3<T>) {
+    let u = exp_quat(spin * tau);
+    let (a, uq) = (u.rotate(p - c0), u.mul_quat(q));
+    // Left multiplication by `u` and the rotation by it are orthogonal maps.
+    let gp = u.rotate_inv(gx);
+    let gq_raw = u.conj().mul_quat(gq);
+    let h = gq.mul_quat(uq.conj());
+    let g_delta = a.cross(gx) + Vec3::new(h.x, h.y, h.z) * T::HALF;
+    let g_spin = left_jacobian(spin * tau).transpose().mul_vec(g_delta) * tau;
+    (gp, gq_raw, g_spin)
+}
+
+/// The point of the circle about the axis through `centre` (angular velocity `omega`)
+/// through `c0`, at elapsed time `tau`.
+pub(super) fn circle_point<T: Real>(
+    centre: Vec3<T>,
+    omega: Vec3<T>,
+    c0: Vec3<T>,
+    tau: T,
+) -> Vec3<T> {
+    centre + exp_quat(omega * tau).rotate(c0 - centre)
+}
+
+/// The VJP of [`circle_point`] with respect to `centre` and `omega`, given the cotangent `g`
+/// of the point.
+pub(super) fn circle_point_vjp<T: Real>(
+    centre: Vec3<T>,
+    omega: Vec3<T>,
+    c0: Vec3<T>,
+    tau: T,
+    g: Vec3<T>,
+) -> (Vec3<T>, Vec3<T>) {
+    let r = exp_quat(omega * tau);
+    let a = r.rotate(c0 - centre);
+    let g_omega = left_jacobian(omega * tau).transpose().mul_vec(a.cross(g)) * tau;
+    (g - r.rotate_inv(g), g_omega)
+}
+
+/// Writes `params` posed at time `t` into the `members` of `st` (`c0` the body's canonical
+/// centroid, `t0` the start of the range).
+fn place_params(
+    st: &mut Splats<f32>,
+    (members, c0, t0): (&[usize], Vec3<f64>, f64),
+    params: &BodyParams,
+    t: f64,
+) {
+    let tau = t - t0;
+    let o = &params.orbit;
+    let c = circle_point(o.centre, o.omega, c0, tau);
+    let s = &params.splats;
+    for (j, &i) in members.iter().enumerate() {
+        let (x, q) = member_pose((c, c0), o.spin, tau, s.means[j].cast(), s.quats[j].cast());
+        st.means[i] = x.cast();
+        st.quats[i] = q.cast();
+        st.log_scales[i] = s.log_scales[j];
+        st.opacity_logits[i] = s.opacity_logits[j];
+        st.sh_coeffs_mut(i).copy_from_slice(s.sh_coeffs(j));
+    }
+}
+
+/// Buffers of one refit.
+#[derive(Default)]
+struct Workspace {
+    rast: TiledRasterizer<f32>,
+    ssim: SsimWorkspace<f32>,
+    probe: Splats<f32>,
+}
+
+/// Mean photometric loss per view of `frames` with the body posed from `params`.
+fn mean_loss(
+    ctx: &SearchContext<'_>,
+    frames: &Frames<'_>,
+    body: (&[usize], Vec3<f64>, f64),
+    params: &BodyParams,
+    opts: &RenderOptions<f32>,
+    ws: &mut Workspace,
+) -> f64 {
+    let mut total = 0.0;
+    for (v, st) in frames.views.iter().zip(&frames.states) {
+        ws.probe.clone_from(st);
+        place_params(&mut ws.probe, body, params, v.time);
+        let r = render_tiled(&ws.probe, &v.camera, opts, &mut ws.rast);
+        total += f64::from(
+            photometric_loss(&mut ws.ssim, &r.raster.rgb, &v.image, ctx.lambda, opts.par).total,
+        );
+    }
+    #[allow(clippy::cast_precision_loss, reason = "a count")]
+    let n = frames.len().max(1) as f64;
+    total / n
+}
+
+/// One Adam step of a vector in f64 (the moments in f32).
+fn adam_vec3(st: &mut AdamState, lr: f64, x: &mut Vec3<f64>, g: Vec3<f64>) {
+    #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
+    let (mut x32, g32) = (
+        x.to_array().map(|v| v as f32),
+        g.to_array().map(|v| v as f32),
+    );
+    st.step(&Adam::default(), lr, &mut x32, &g32);
+    *x = Vec3::new(x32[0], x32[1], x32[2]).cast();
+}
+
+/// One refit: `iters` Adam steps on `start` (the members of `group` and its orbit, over the
+/// range's start and length `range`), one view of `frames` per step in a shuffled order.
+/// Returns the fitted parameters and their mean loss per view over `frames`.
+pub(super) fn refit_body(
+    ctx: &SearchContext<'_>,
+    frames: &Frames<'_>,
+    (group, range): (&Group, (f64, f64)),
+    start: &BodyParams,
+    iters: usize,
+    par: Par,
+) -> (BodyParams, f64) {
+    let opts = RenderOptions { par, ..ctx.opts };
+    let (members, c0) = (group.members.as_slice(), group.centroid);
+    let body = (members, c0, range.0);
+    let mut ws = Workspace::default();
+    let mut params = start.clone();
+    let n = params.splats.len();
+    let mut flat = Vec::new();
+    params.splats.write_flat(&mut flat);
+    // The flat layout's blocks: means, log-scales, quaternions, opacity logits, SH.
+    let bounds = [0, 3 * n, 6 * n, 10 * n, 11 * n, flat.len()];
+    let rate_of_block = [RATES[0], RATES[2], RATES[1], RATES[3], RATES[4]];
+    let mut adam: Vec<AdamState> = bounds
+        .windows(2)
+        .map(|w| AdamState::new(w[1] - w[0]))
+        .collect();
+    let mut orbit_adam: [AdamState; 3] = core::array::from_fn(|_| AdamState::new(3));
+    let hyper = Adam::default();
+    let mut grad_members = params.splats.zeros_like();
+    let mut gflat = Vec::new();
+    let mut order: Vec<usize> = (0..frames.len()).collect();
+    let mut rng = SplitMix64::new(ORDER_SEED);
+    let mut d_image = Image::new(0, 0);
+    for k in 0..iters {
+        if frames.len() == 0 {
+            break;
+        }
+        let e = k % frames.len();
+        if e == 0 {
+            for i in (1..order.len()).rev() {
+                order.swap(i, rng.below(i + 1));
+            }
+        }
+        let (v, st) = (frames.views[order[e]], &frames.states[order[e]]);
+        ws.probe.clone_from(st);
+        place_params(&mut ws.probe, body, &params, v.time);
+        let fwd = render_tiled(&ws.probe, &v.camera, &opts, &mut ws.rast);
+        let (w, h) = (v.image.width(), v.image.height());
+        if d_image.width() != w || d_image.height() != h {
+            d_image = Image::new(w, h);
+        }
+        d_image.data_mut().fill(0.0);
+        photometric_loss_and_grad(
+            &mut ws.ssim,
+            &fwd.raster.rgb,
+            &v.image,
+            ctx.lambda,
+            1.0,
+            &mut d_image,
+            opts.par,
+        );
+        let g = render_tiled_vjp(
+            &ws.probe,
+            &v.camera,
+            &opts,
+            &mut ws.rast,
+            &fwd,
+            &PixelGrad {
+                rgb: d_image.data(),
+                alpha: None,
+                depth: None,
+            },
+        )
+        .splats;
+        // Back to the canonical members, the spin and the orbit.
+        let tau = v.time - range.0;
+        let o = params.orbit;
+        let (mut g_spin, mut g_c) = (Vec3::<f64>::zero(), Vec3::<f64>::zero());
+        for (j, &i) in members.iter().enumerate() {
+            let s = &params.splats;
+            let gx: Vec3<f64> = g.means[i].cast();
+            let (gp, gq, gs) = member_pose_vjp(
+                c0,
+                o.spin,
+                tau,
+                (s.means[j].cast(), s.quats[j].cast()),
+                (gx, g.quats[i].cast()),
+            );
+            grad_members.means[j] = gp.cast();
+            grad_members.quats[j] = gq.cast();
+            grad_members.log_scales[j] = g.log_scales[i];
+            grad_members.opacity_logits[j] = g.opacity_logits[i];
+            grad_members
+                .sh_coeffs_mut(j)
+                .copy_from_slice(g.sh_coeffs(i));
+            g_spin += gs;
+            g_c += gx;
+        }
+        let (g_centre, g_omega) = circle_point_vjp(o.centre, o.omega, c0, tau, g_c);
+        #[allow(clippy::cast_precision_loss, reason = "step counts")]
+        let decay = FINAL_RATE.powf(k as f64 / iters.max(1) as f64);
+        grad_members.write_flat(&mut gflat);
+        for (b, st) in adam.iter_mut().enumerate() {
+            let (lo, hi) = (bounds[b], bounds[b + 1]);
+            st.step(
+                &hyper,
+                rate_of_block[b] * decay,
+                &mut flat[lo..hi],
+                &gflat[lo..hi],
+            );
+        }
+        params.splats.read_flat(&flat);
+        let [a_centre, a_omega, a_spin] = &mut orbit_adam;
+        let orbit = &mut params.orbit;
+        adam_vec3(
+            a_centre,
+            ORBIT_RATES[0] * decay,
+            &mut orbit.centre,
+            g_centre,
+        );
+        adam_vec3(a_omega, ORBIT_RATES[1] * decay, &mut orbit.omega, g_omega);
+        adam_vec3(a_spin, ORBIT_RATES[2] * decay, &mut orbit.spin, g_spin);
+    }
+    let loss = mean_loss(ctx, frames, body, &params, &opts, &mut ws);
+    (params, loss)
+}
+
+/// [`refit_body`] from `start` turned at each of `spins`, the refits shared among the threads
+/// when `ctx.par` is parallel (each refit's own renders sequential, so the results do not
+/// depend on the thread count; a single refit's renders take the threads). Returns the
+/// fitted parameters and losses in `spins`' order.
+pub(super) fn refit_spins(
+    ctx: &SearchContext<'_>,
+    frames: &Frames<'_>,
+    body: (&Group, (f64, f64)),
+    start: &BodyParams,
+    spins: &[Vec3<f64>],
+    iters: usize,
+) -> Vec<(BodyParams, f64)> {
+    let from = |s: &Vec3<f64>| BodyParams {
+        orbit: start.orbit.with_spin(*s),
+        ..start.clone()
+    };
+    if let [s] = spins {
+        return vec![refit_body(ctx, frames, body, &from(s), iters, ctx.par)];
+    }
+    let one = |s: &Vec3<f64>| refit_body(ctx, frames, body, &from(s), iters, Par::Seq);
+    match ctx.par {
+        Par::Seq => spins.iter().map(one).collect(),
+        #[cfg(feature = "rayon")]
+        Par::Rayon => {
+            use rayon::prelude::*;
+            spins.par_iter().map(one).collect()
+        }
+    }
+}
+
+/// The orbit search's refit stage: refits `group` from `orbit` with each of `spins` over the
+/// views to `horizon` (fraction of `range`) with `iters` steps each, and adopts the best: its
+/// members' canonical parameters go into `model` and `ctx`. Returns the best refit's orbit.
+pub(super) fn adopt_best_refit(
+    model: &mut Model<f32>,
+    ctx: &mut SearchContext<'_>,
+    (group, orbit, range): (&Group, Orbit, (f64, f64)),
+    spins: &[Vec3<f64>],
+    (horizon, iters): (f64, usize),
+    stepper: &mut Option<Stepper<f32>>,
+    log: &mut dyn FnMut(&str),
+) -> Orbit {
+    let frames = Frames::new(model, ctx, (range, horizon), stepper);
+    let start = BodyParams::gather(&model.canonical, &group.members, orbit);
+    let body = (group, range);
+    let (_, before) = refit_body(ctx, &frames, body, &start, 0, ctx.par);
+    let fits = refit_spins(ctx, &frames, body, &start, spins, iters);
+    let Some(best) = (0..fits.len()).min_by(|&i, &j| fits[i].1.total_cmp(&fits[j].1)) else {
+        return orbit;
+    };
+    let worst = fits.iter().map(|f| f.1).fold(f64::NEG_INFINITY, f64::max);
+    let o = fits[best].0.orbit;
+    log(&format!(
+        "orbit search: refit from {} spins over {} views to {horizon:.2}, {iters} steps each: spin {:.2?} -> {:.2?}, |Ω| {:.3} -> {:.3}, centre moved {:.3}, loss per view {before:.4e} before, {:.4e} after (the worst refit {worst:.4e})",
+        spins.len(),
+        frames.len(),
+        spins[best].to_array(),
+        o.spin.to_array(),
+        orbit.omega.norm(),
+        o.omega.norm(),
+        (o.centre - orbit.centre).norm(),
+        fits[best].1,
+    ));
+    fits[best]
+        .0
+        .scatter(&group.members, &mut model.canonical, ctx);
+    o
+}
+
+#[cfg(test)]
+#[path = "body_fit_tests.rs"]
+mod tests;
