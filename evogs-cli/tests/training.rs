@@ -286,6 +286,9 @@ fn train_with_search<R: Default>(
             .all(|a| a.means.iter().all(|m| m.is_finite())),
         "finite anchors"
     );
+    let mut flat = Vec::new();
+    t.model.canonical.write_flat(&mut flat);
+    assert!(flat.iter().all(|v| v.is_finite()), "finite canonical");
     (at, result)
 }
 
@@ -331,6 +334,11 @@ fn the_orbit_search_is_due_once_and_leaves_a_trainable_model() {
     c.orbit_search.max_spin = 1.0;
     c.orbit_search.spin_step = 1.0;
     c.orbit_search.polish_rounds = 2;
+    // Refits of the body's canonical Gaussians with its spin and orbit, which write them
+    // back into the model.
+    c.orbit_search.refit_iters = 5;
+    c.orbit_search.refit_candidates = 2;
+    c.orbit_search.final_refit_iters = 5;
     c.orbit_search.view_stride = 8;
     c.orbit_search.min_gain = f64::NEG_INFINITY;
     c.orbit_search.fit_iters = 20;
