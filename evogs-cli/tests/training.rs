@@ -305,6 +305,8 @@ fn the_spin_search_is_due_once_and_leaves_a_trainable_model() {
     c.spin_search.max_radius = 10.0;
     c.spin_search.multipliers = vec![0.0, 1.0, 2.0];
     c.spin_search.fit_iters = 20;
+    // A refit of each searched body's shape, spin and path, written back into the model.
+    c.spin_search.refit_iters = 5;
     let (due, chosen) = train_with_search(trainer(c), Trainer::spin_search_due, |t| {
         t.spin_search(&mut |_| {})
     });

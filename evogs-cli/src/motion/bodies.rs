@@ -6,7 +6,8 @@
 use super::SpinSearchConfig;
 use crate::model::Model;
 use evogs_math::so3::exp_quat;
-use evogs_math::{Quat, Vec3};
+use evogs_math::so3_jacobians::left_jacobian;
+use evogs_math::{Quat, Real, Vec3};
 use evogs_ode::Stepper;
 use evogs_splat::Splats;
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -86,7 +87,7 @@ impl Paths {
 }
 
 /// The path of a body's centroid.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum CentrePath {
     /// The learnt centroid at each grid time, linear between them.
     Sampled(Vec<Vec3<f64>>),
@@ -98,6 +99,48 @@ pub enum CentrePath {
         /// Angular velocity (world frame, radians per unit time).
         omega: Vec3<f64>,
     },
+}
+
+impl CentrePath {
+    /// The centroid at `t` and its rate, for a body whose centroid is `c0` at the start of
+    /// `range` (start, length).
+    #[must_use]
+    pub fn at(&self, c0: Vec3<f64>, (t_lo, span): (f64, f64), t: f64) -> (Vec3<f64>, Vec3<f64>) {
+        match self {
+            Self::Circle { centre, omega } => {
+                let c = circle_point(*centre, *omega, c0, t - t_lo);
+                (c, omega.cross(c - *centre))
+            }
+            Self::Sampled(centroid) => {
+                let (k, f) = Paths::locate(t_lo, span, t);
+                let (a, b) = (centroid[k], centroid[k + 1]);
+                #[allow(clippy::cast_precision_loss, reason = "a small count")]
+                let rate = (b - a) * (GRID as f64 / span);
+                (a + (b - a) * f, rate)
+            }
+        }
+    }
+}
+
+/// The point of the circle about the axis through `centre` (angular velocity `omega`)
+/// through `c0`, at elapsed time `tau`.
+pub fn circle_point<T: Real>(centre: Vec3<T>, omega: Vec3<T>, c0: Vec3<T>, tau: T) -> Vec3<T> {
+    centre + exp_quat(omega * tau).rotate(c0 - centre)
+}
+
+/// The VJP of [`circle_point`] with respect to `centre` and `omega`, given the cotangent `g`
+/// of the point.
+pub fn circle_point_vjp<T: Real>(
+    centre: Vec3<T>,
+    omega: Vec3<T>,
+    c0: Vec3<T>,
+    tau: T,
+    g: Vec3<T>,
+) -> (Vec3<T>, Vec3<T>) {
+    let r = exp_quat(omega * tau);
+    let a = r.rotate(c0 - centre);
+    let g_omega = left_jacobian(omega * tau).transpose().mul_vec(a.cross(g)) * tau;
+    (g - r.rotate_inv(g), g_omega)
 }
 
 /// A group of Gaussians moving together, and its learnt motion as a constant spin.
@@ -125,20 +168,7 @@ impl Body {
     /// The centroid at `t` (on the circle, or linear between grid times) and its rate.
     #[must_use]
     pub fn centre(&self, t: f64) -> (Vec3<f64>, Vec3<f64>) {
-        let (t_lo, span) = self.range;
-        match &self.path {
-            CentrePath::Circle { centre, omega } => {
-                let c = *centre + exp_quat(*omega * (t - t_lo)).rotate(self.c0 - *centre);
-                (c, omega.cross(c - *centre))
-            }
-            CentrePath::Sampled(centroid) => {
-                let (k, f) = Paths::locate(t_lo, span, t);
-                let (a, b) = (centroid[k], centroid[k + 1]);
-                #[allow(clippy::cast_precision_loss, reason = "a small count")]
-                let rate = (b - a) * (GRID as f64 / span);
-                (a + (b - a) * f, rate)
-            }
-        }
+        self.path.at(self.c0, self.range, t)
     }
 
     /// Position and orientation at `t`, with the spin multiplied by `s`, of a Gaussian at

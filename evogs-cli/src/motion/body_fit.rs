@@ -24,8 +24,9 @@
 //! and `∂L/∂s = τ Jₗ(τ s)ᵀ ∂L/∂δ` ([`member_pose_vjp`]); the same for `Ω` with the sum of the
 //! members' position cotangents ([`circle_point_vjp`]).
 
+use super::bodies::{Body, CentrePath, Paths, circle_point_vjp};
 use super::orbit::{Group, Orbit};
-use super::spin::SearchContext;
+use super::spin::{SearchContext, place};
 use crate::model::Model;
 use crate::train::adam::{Adam, AdamState};
 use crate::train::step::ViewData;
@@ -43,26 +44,66 @@ use evogs_splat::{
 /// Adam rates of a refit (per step, before the decay): positions (scene units), raw
 /// quaternions, log-scales, opacity logits, SH coefficients.
 const RATES: [f64; 5] = [1e-3, 2e-3, 5e-3, 0.05, 2.5e-3];
-/// Adam rates of the orbit's centre (scene units), angular velocity and the body's spin
-/// (radians per unit time).
-const ORBIT_RATES: [f64; 3] = [1e-3, 0.02, 0.05];
+/// Adam rates of the centroid path's points (an orbit's centre, a learnt path's samples;
+/// scene units), an orbit's angular velocity and the body's spin (radians per unit time).
+const PATH_RATES: [f64; 3] = [1e-3, 0.02, 0.05];
 /// The rates fall exponentially to this fraction of themselves over a refit.
 const FINAL_RATE: f64 = 0.1;
 /// Seed of the views' order.
 const ORDER_SEED: u64 = 23;
 
-/// A body's members' canonical parameters (in the order of its members) and its orbit.
+/// A body's members' canonical parameters (in the order of its members), its own spin and
+/// its centroid's path.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct BodyParams {
     /// The members' canonical Gaussians.
     pub splats: Splats<f32>,
-    /// Its orbit and own spin.
-    pub orbit: Orbit,
+    /// World-frame spin (radians per unit time).
+    pub spin: Vec3<f64>,
+    /// The centroid's path: an orbit's circle or a learnt body's samples.
+    pub path: CentrePath,
+}
+
+/// What a refit moves: a body's members, its canonical centroid and the time range (start,
+/// length) its path runs over.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Subject<'a> {
+    /// The members.
+    pub members: &'a [usize],
+    /// Their centroid at the range's start.
+    pub c0: Vec3<f64>,
+    /// Start and length of the time range.
+    pub range: (f64, f64),
+}
+
+impl<'a> Subject<'a> {
+    /// An orbit search's `group` over `range`.
+    pub(super) fn group(group: &'a Group, range: (f64, f64)) -> Self {
+        Self {
+            members: &group.members,
+            c0: group.centroid,
+            range,
+        }
+    }
+
+    /// A spin search's `body`.
+    pub(super) fn body(body: &'a Body) -> Self {
+        Self {
+            members: &body.members,
+            c0: body.c0,
+            range: body.range,
+        }
+    }
 }
 
 impl BodyParams {
-    /// The `members` of `canonical`, on `orbit`.
-    pub(super) fn gather(canonical: &Splats<f32>, members: &[usize], orbit: Orbit) -> Self {
+    /// The `members` of `canonical`, spinning at `spin` along `path`.
+    pub(super) fn gather(
+        canonical: &Splats<f32>,
+        members: &[usize],
+        spin: Vec3<f64>,
+        path: CentrePath,
+    ) -> Self {
         let mut splats = Splats::new(canonical.sh_degree);
         for &i in members {
             splats.push(
@@ -73,7 +114,59 @@ impl BodyParams {
                 canonical.sh_coeffs(i),
             );
         }
-        Self { splats, orbit }
+        Self { splats, spin, path }
+    }
+
+    /// `orbit`'s circle and spin for the `members` of `canonical`.
+    pub(super) fn orbit(canonical: &Splats<f32>, members: &[usize], orbit: &Orbit) -> Self {
+        let path = CentrePath::Circle {
+            centre: orbit.centre,
+            omega: orbit.omega,
+        };
+        Self::gather(canonical, members, orbit.spin, path)
+    }
+
+    /// The orbit of a circling body (`None` for a sampled path).
+    pub(super) fn as_orbit(&self) -> Option<Orbit> {
+        match self.path {
+            CentrePath::Circle { centre, omega } => Some(Orbit {
+                centre,
+                omega,
+                spin: self.spin,
+            }),
+            CentrePath::Sampled(_) => None,
+        }
+    }
+
+    /// The path's parameters, flat (an orbit's centre and angular velocity, or a learnt
+    /// path's samples), and the blocks `(start, end, rate)` of their Adam rates.
+    fn path_flat(&self) -> (Vec<f32>, Vec<(usize, usize, f64)>) {
+        #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
+        let flat = |v: &[Vec3<f64>]| -> Vec<f32> {
+            v.iter()
+                .flat_map(|p| p.to_array().map(|x| x as f32))
+                .collect()
+        };
+        match &self.path {
+            CentrePath::Circle { centre, omega } => (
+                flat(&[*centre, *omega]),
+                vec![(0, 3, PATH_RATES[0]), (3, 6, PATH_RATES[1])],
+            ),
+            CentrePath::Sampled(c) => (flat(c), vec![(0, 3 * c.len(), PATH_RATES[0])]),
+        }
+    }
+
+    /// Sets the path's parameters from the layout of [`Self::path_flat`].
+    fn set_path_flat(&mut self, flat: &[f32]) {
+        let at = |k: usize| Vec3::from_slice(&flat[3 * k..]).cast::<f64>();
+        match &mut self.path {
+            CentrePath::Circle { centre, omega } => (*centre, *omega) = (at(0), at(1)),
+            CentrePath::Sampled(c) => {
+                for (k, p) in c.iter_mut().enumerate() {
+                    *p = at(k);
+                }
+            }
+        }
     }
 
     /// Writes the members back into `canonical` and the search's canonical poses.
@@ -129,6 +222,13 @@ impl<'v> Frames<'v> {
         Self { views, states }
     }
 
+    /// Applies `f` to each view's time and state (to place other bodies in them).
+    pub(super) fn for_each_state(&mut self, mut f: impl FnMut(f64, &mut Splats<f32>)) {
+        for (v, st) in self.views.iter().zip(&mut self.states) {
+            f(v.time, st);
+        }
+    }
+
     /// Number of views.
     pub(super) fn len(&self) -> usize {
         self.views.len()
@@ -168,46 +268,42 @@ pub(super) fn member_pose_vjp<T: Real>(
     (gp, gq_raw, g_spin)
 }
 
-/// The point of the circle about the axis through `centre` (angular velocity `omega`)
-/// through `c0`, at elapsed time `tau`.
-pub(super) fn circle_point<T: Real>(
-    centre: Vec3<T>,
-    omega: Vec3<T>,
-    c0: Vec3<T>,
-    tau: T,
-) -> Vec3<T> {
-    centre + exp_quat(omega * tau).rotate(c0 - centre)
+/// The VJP of the centroid's position on `path` at `t` (for `sub`), `g` its cotangent,
+/// added into `g_path` (the layout of [`BodyParams::path_flat`]).
+fn path_vjp(path: &CentrePath, sub: Subject<'_>, t: f64, g: Vec3<f64>, g_path: &mut [f64]) {
+    let (t0, span) = sub.range;
+    let mut add = |k: usize, v: Vec3<f64>| {
+        for (d, x) in g_path[3 * k..3 * k + 3].iter_mut().zip(v.to_array()) {
+            *d += x;
+        }
+    };
+    match path {
+        CentrePath::Circle { centre, omega } => {
+            let (gc, gw) = circle_point_vjp(*centre, *omega, sub.c0, t - t0, g);
+            add(0, gc);
+            add(1, gw);
+        }
+        CentrePath::Sampled(_) => {
+            let (k, f) = Paths::locate(t0, span, t);
+            add(k, g * (1.0 - f));
+            add(k + 1, g * f);
+        }
+    }
 }
 
-/// The VJP of [`circle_point`] with respect to `centre` and `omega`, given the cotangent `g`
-/// of the point.
-pub(super) fn circle_point_vjp<T: Real>(
-    centre: Vec3<T>,
-    omega: Vec3<T>,
-    c0: Vec3<T>,
-    tau: T,
-    g: Vec3<T>,
-) -> (Vec3<T>, Vec3<T>) {
-    let r = exp_quat(omega * tau);
-    let a = r.rotate(c0 - centre);
-    let g_omega = left_jacobian(omega * tau).transpose().mul_vec(a.cross(g)) * tau;
-    (g - r.rotate_inv(g), g_omega)
-}
-
-/// Writes `params` posed at time `t` into the `members` of `st` (`c0` the body's canonical
-/// centroid, `t0` the start of the range).
-fn place_params(
-    st: &mut Splats<f32>,
-    (members, c0, t0): (&[usize], Vec3<f64>, f64),
-    params: &BodyParams,
-    t: f64,
-) {
-    let tau = t - t0;
-    let o = &params.orbit;
-    let c = circle_point(o.centre, o.omega, c0, tau);
+/// Writes `params` posed at time `t` into the members of `st`.
+fn place_params(st: &mut Splats<f32>, sub: Subject<'_>, params: &BodyParams, t: f64) {
+    let tau = t - sub.range.0;
+    let (c, _) = params.path.at(sub.c0, sub.range, t);
     let s = &params.splats;
-    for (j, &i) in members.iter().enumerate() {
-        let (x, q) = member_pose((c, c0), o.spin, tau, s.means[j].cast(), s.quats[j].cast());
+    for (j, &i) in sub.members.iter().enumerate() {
+        let (x, q) = member_pose(
+            (c, sub.c0),
+            params.spin,
+            tau,
+            s.means[j].cast(),
+            s.quats[j].cast(),
+        );
         st.means[i] = x.cast();
         st.quats[i] = q.cast();
         st.log_scales[i] = s.log_scales[j];
@@ -228,7 +324,7 @@ struct Workspace {
 fn mean_loss(
     ctx: &SearchContext<'_>,
     frames: &Frames<'_>,
-    body: (&[usize], Vec3<f64>, f64),
+    body: Subject<'_>,
     params: &BodyParams,
     opts: &RenderOptions<f32>,
     ws: &mut Workspace,
@@ -258,20 +354,19 @@ fn adam_vec3(st: &mut AdamState, lr: f64, x: &mut Vec3<f64>, g: Vec3<f64>) {
     *x = Vec3::new(x32[0], x32[1], x32[2]).cast();
 }
 
-/// One refit: `iters` Adam steps on `start` (the members of `group` and its orbit, over the
-/// range's start and length `range`), one view of `frames` per step in a shuffled order.
-/// Returns the fitted parameters and their mean loss per view over `frames`.
+/// One refit of `sub`: `iters` Adam steps on `start` (its members' canonical Gaussians, its
+/// spin and its path), one view of `frames` per step in a shuffled order. Returns the fitted
+/// parameters and their mean loss per view over `frames`.
 pub(super) fn refit_body(
     ctx: &SearchContext<'_>,
     frames: &Frames<'_>,
-    (group, range): (&Group, (f64, f64)),
+    sub: Subject<'_>,
     start: &BodyParams,
     iters: usize,
     par: Par,
 ) -> (BodyParams, f64) {
     let opts = RenderOptions { par, ..ctx.opts };
-    let (members, c0) = (group.members.as_slice(), group.centroid);
-    let body = (members, c0, range.0);
+    let (members, c0, t0) = (sub.members, sub.c0, sub.range.0);
     let mut ws = Workspace::default();
     let mut params = start.clone();
     let n = params.splats.len();
@@ -284,7 +379,13 @@ pub(super) fn refit_body(
         .windows(2)
         .map(|w| AdamState::new(w[1] - w[0]))
         .collect();
-    let mut orbit_adam: [AdamState; 3] = core::array::from_fn(|_| AdamState::new(3));
+    let (mut path_flat, path_blocks) = params.path_flat();
+    let mut path_adam: Vec<AdamState> = path_blocks
+        .iter()
+        .map(|&(lo, hi, _)| AdamState::new(hi - lo))
+        .collect();
+    let mut g_path = vec![0.0f64; path_flat.len()];
+    let mut spin_adam = AdamState::new(3);
     let hyper = Adam::default();
     let mut grad_members = params.splats.zeros_like();
     let mut gflat = Vec::new();
@@ -303,7 +404,7 @@ pub(super) fn refit_body(
         }
         let (v, st) = (frames.views[order[e]], &frames.states[order[e]]);
         ws.probe.clone_from(st);
-        place_params(&mut ws.probe, body, &params, v.time);
+        place_params(&mut ws.probe, sub, &params, v.time);
         let fwd = render_tiled(&ws.probe, &v.camera, &opts, &mut ws.rast);
         let (w, h) = (v.image.width(), v.image.height());
         if d_image.width() != w || d_image.height() != h {
@@ -332,16 +433,15 @@ pub(super) fn refit_body(
             },
         )
         .splats;
-        // Back to the canonical members, the spin and the orbit.
-        let tau = v.time - range.0;
-        let o = params.orbit;
+        // Back to the canonical members, the spin and the path.
+        let tau = v.time - t0;
         let (mut g_spin, mut g_c) = (Vec3::<f64>::zero(), Vec3::<f64>::zero());
         for (j, &i) in members.iter().enumerate() {
             let s = &params.splats;
             let gx: Vec3<f64> = g.means[i].cast();
             let (gp, gq, gs) = member_pose_vjp(
                 c0,
-                o.spin,
+                params.spin,
                 tau,
                 (s.means[j].cast(), s.quats[j].cast()),
                 (gx, g.quats[i].cast()),
@@ -356,7 +456,8 @@ pub(super) fn refit_body(
             g_spin += gs;
             g_c += gx;
         }
-        let (g_centre, g_omega) = circle_point_vjp(o.centre, o.omega, c0, tau, g_c);
+        g_path.fill(0.0);
+        path_vjp(&params.path, sub, v.time, g_c, &mut g_path);
         #[allow(clippy::cast_precision_loss, reason = "step counts")]
         let decay = FINAL_RATE.powf(k as f64 / iters.max(1) as f64);
         grad_members.write_flat(&mut gflat);
@@ -370,18 +471,20 @@ pub(super) fn refit_body(
             );
         }
         params.splats.read_flat(&flat);
-        let [a_centre, a_omega, a_spin] = &mut orbit_adam;
-        let orbit = &mut params.orbit;
+        for (st, &(lo, hi, rate)) in path_adam.iter_mut().zip(&path_blocks) {
+            #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
+            let g32: Vec<f32> = g_path[lo..hi].iter().map(|&x| x as f32).collect();
+            st.step(&hyper, rate * decay, &mut path_flat[lo..hi], &g32);
+        }
+        params.set_path_flat(&path_flat);
         adam_vec3(
-            a_centre,
-            ORBIT_RATES[0] * decay,
-            &mut orbit.centre,
-            g_centre,
+            &mut spin_adam,
+            PATH_RATES[2] * decay,
+            &mut params.spin,
+            g_spin,
         );
-        adam_vec3(a_omega, ORBIT_RATES[1] * decay, &mut orbit.omega, g_omega);
-        adam_vec3(a_spin, ORBIT_RATES[2] * decay, &mut orbit.spin, g_spin);
     }
-    let loss = mean_loss(ctx, frames, body, &params, &opts, &mut ws);
+    let loss = mean_loss(ctx, frames, sub, &params, &opts, &mut ws);
     (params, loss)
 }
 
@@ -392,13 +495,13 @@ pub(super) fn refit_body(
 pub(super) fn refit_spins(
     ctx: &SearchContext<'_>,
     frames: &Frames<'_>,
-    body: (&Group, (f64, f64)),
+    body: Subject<'_>,
     start: &BodyParams,
     spins: &[Vec3<f64>],
     iters: usize,
 ) -> Vec<(BodyParams, f64)> {
     let from = |s: &Vec3<f64>| BodyParams {
-        orbit: start.orbit.with_spin(*s),
+        spin: *s,
         ..start.clone()
     };
     if let [s] = spins {
@@ -428,15 +531,17 @@ pub(super) fn adopt_best_refit(
     log: &mut dyn FnMut(&str),
 ) -> Orbit {
     let frames = Frames::new(model, ctx, (range, horizon), stepper);
-    let start = BodyParams::gather(&model.canonical, &group.members, orbit);
-    let body = (group, range);
+    let start = BodyParams::orbit(&model.canonical, &group.members, &orbit);
+    let body = Subject::group(group, range);
     let (_, before) = refit_body(ctx, &frames, body, &start, 0, ctx.par);
     let fits = refit_spins(ctx, &frames, body, &start, spins, iters);
     let Some(best) = (0..fits.len()).min_by(|&i, &j| fits[i].1.total_cmp(&fits[j].1)) else {
         return orbit;
     };
     let worst = fits.iter().map(|f| f.1).fold(f64::NEG_INFINITY, f64::max);
-    let o = fits[best].0.orbit;
+    let Some(o) = fits[best].0.as_orbit() else {
+        return orbit;
+    };
     log(&format!(
         "orbit search: refit from {} spins over {} views to {horizon:.2}, {iters} steps each: spin {:.2?} -> {:.2?}, |Ω| {:.3} -> {:.3}, centre moved {:.3}, loss per view {before:.4e} before, {:.4e} after (the worst refit {worst:.4e})",
         spins.len(),
@@ -452,6 +557,54 @@ pub(super) fn adopt_best_refit(
         .0
         .scatter(&group.members, &mut model.canonical, ctx);
     o
+}
+
+/// The spin search's refit of `bodies[b]` spinning at `spin` along its learnt centroid path:
+/// its canonical Gaussians, spin and path samples fitted over every view of `ctx`, the
+/// bodies chosen before it placed at their spins (`chosen`). The result goes into `model` and
+/// `ctx`, and is returned.
+#[allow(clippy::too_many_arguments, reason = "the search's whole state")]
+pub(super) fn adopt_body_refit(
+    model: &mut Model<f32>,
+    ctx: &mut SearchContext<'_>,
+    (bodies, chosen, b): (&[Body], &[Option<f64>], usize),
+    spin: Vec3<f64>,
+    iters: usize,
+    stepper: &mut Option<Stepper<f32>>,
+    log: &mut dyn FnMut(&str),
+) -> BodyParams {
+    let body = &bodies[b];
+    let mut frames = Frames::new(model, ctx, (body.range, f64::INFINITY), stepper);
+    frames.for_each_state(|t, st| {
+        for (c, other) in bodies.iter().enumerate() {
+            if let (true, Some(s)) = (c != b, chosen[c]) {
+                place(st, other, t, s, &ctx.p0, &ctx.q0, &ctx.log_scales);
+            }
+        }
+    });
+    let sub = Subject::body(body);
+    let start = BodyParams::gather(&model.canonical, &body.members, spin, body.path.clone());
+    let (_, before) = refit_body(ctx, &frames, sub, &start, 0, ctx.par);
+    let (fitted, after) = refit_body(ctx, &frames, sub, &start, iters, ctx.par);
+    let (c_start, c_end) = (
+        body.centre(body.range.0).0,
+        fitted
+            .path
+            .at(sub.c0, sub.range, sub.range.0 + sub.range.1)
+            .0,
+    );
+    log(&format!(
+        "spin search: body {b}: refit over {} views, {iters} steps: spin {:.3?} (|{:.3}|) -> {:.3?} (|{:.3}|), loss per view {before:.4e} -> {after:.4e}, path from {:.3?} to {:.3?}",
+        frames.len(),
+        spin.to_array(),
+        spin.norm(),
+        fitted.spin.to_array(),
+        fitted.spin.norm(),
+        c_start.to_array(),
+        c_end.to_array(),
+    ));
+    fitted.scatter(&body.members, &mut model.canonical, ctx);
+    fitted
 }
 
 #[cfg(test)]

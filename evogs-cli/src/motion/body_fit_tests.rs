@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::motion::OrbitSearchConfig;
+use crate::motion::bodies::{GRID, circle_point, circle_point_vjp};
 use crate::motion::orbit::{canonical_groups, search};
 use crate::motion::spin::place;
 use crate::motion::test_support::{
@@ -78,6 +79,51 @@ fn circle_point_vjp_matches_central_differences() {
     assert!((c - circle_point(centre, omega, c0, tau)).norm() < 1e-12);
 }
 
+#[test]
+fn path_vjp_matches_central_differences_for_circles_and_samples() {
+    let mut rng = SplitMix64::new(8);
+    let mut v3 = |s: f64| Vec3::new(rng.normal(), rng.normal(), rng.normal()) * s;
+    let (c0, g) = (v3(1.0), v3(1.0));
+    let range = (0.1, 0.8);
+    let circle = CentrePath::Circle {
+        centre: v3(1.0),
+        omega: v3(4.0),
+    };
+    let sampled = CentrePath::Sampled((0..=GRID).map(|_| v3(1.0)).collect());
+    let sub = Subject {
+        members: &[],
+        c0,
+        range,
+    };
+    for path in [circle, sampled] {
+        let params = BodyParams {
+            splats: Splats::new(0),
+            spin: Vec3::zero(),
+            path,
+        };
+        let (flat, _) = params.path_flat();
+        // Times inside a grid interval (the samples' interpolation has kinks at its ends).
+        for t in [0.13, 0.377, 0.861] {
+            let mut grad = vec![0.0; flat.len()];
+            path_vjp(&params.path, sub, t, g, &mut grad);
+            let loss = |x: &[f32]| {
+                let mut p = params.clone();
+                p.set_path_flat(x);
+                g.dot(p.path.at(c0, range, t).0)
+            };
+            for k in 0..flat.len() {
+                let h = 1e-2_f32;
+                let (mut up, mut down) = (flat.clone(), flat.clone());
+                up[k] += h;
+                down[k] -= h;
+                let fd = (loss(&up) - loss(&down)) / f64::from(up[k] - down[k]);
+                let tol = 1e-3 * (1.0 + fd.abs());
+                assert!((fd - grad[k]).abs() < tol, "{t} {k}: {fd} {}", grad[k]);
+            }
+        }
+    }
+}
+
 /// The tumbling-rod scene of the orbit tests, its views rendered with the truth, and the
 /// rod's group, orbit and true spin; the canonical rod of the returned splats is squashed
 /// along the first camera's axis (z) and shifted, as a fit to one view leaves it.
@@ -122,8 +168,8 @@ fn a_refit_tells_the_true_spin_from_a_wrong_one_and_moves_towards_it() {
     let range = (0.0, 1.0);
     let frames = Frames::new(&mut model, &ctx, (range, 1.0), &mut None);
     assert_eq!(frames.len(), 12);
-    let start = BodyParams::gather(&splats, &group.members, truth);
-    let body = (&group, range);
+    let start = BodyParams::orbit(&splats, &group.members, &truth);
+    let body = Subject::group(&group, range);
     let (_, before) = refit_body(&ctx, &frames, body, &start, 0, Par::Seq);
     // Truth, turning with the orbit, and the truth off by 1.5 rad per unit time.
     let off = truth.spin + Vec3::new(1.0, -1.0, 0.5);
@@ -135,11 +181,11 @@ fn a_refit_tells_the_true_spin_from_a_wrong_one_and_moves_towards_it() {
     assert!(losses[0] < 0.5 * before, "{before} {losses:?}");
     assert!(losses[0] < losses[1] && losses[0] < losses[2], "{losses:?}");
     // The refit's gradient moves a nearby spin towards the truth.
-    let moved = (fits[2].0.orbit.spin - truth.spin).norm();
+    let moved = (fits[2].0.spin - truth.spin).norm();
     assert!(
         moved < 0.75 * (off - truth.spin).norm(),
         "{:?}",
-        fits[2].0.orbit
+        fits[2].0.spin
     );
     // Parallel refits are bitwise the sequential ones.
     #[cfg(feature = "rayon")]

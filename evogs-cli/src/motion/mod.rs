@@ -59,6 +59,9 @@ pub struct SpinSearchConfig {
     pub fine_step: f64,
     /// Adam steps of the velocity regression that teaches the field the chosen spins.
     pub fit_iters: usize,
+    /// Adam steps of a refit of each searched body's canonical Gaussians, spin and centroid
+    /// path from its chosen spin, over the views (0: none).
+    pub refit_iters: usize,
 }
 
 impl Default for SpinSearchConfig {
@@ -78,6 +81,7 @@ impl Default for SpinSearchConfig {
             ],
             fine_step: 0.0625,
             fit_iters: 1000,
+            refit_iters: 0,
         }
     }
 }

@@ -2,6 +2,7 @@
 
 use super::SpinSearchConfig;
 use super::bodies::{Body, Paths};
+use super::body_fit::adopt_body_refit;
 use crate::model::Model;
 use crate::train::adam::{Adam, AdamState};
 use crate::train::step::ViewData;
@@ -108,11 +109,14 @@ fn scan(
 /// Searches each body that is compact and spins (radius ≤ `max_radius`, spin ≥ `min_spin`)
 /// in turn, the bodies before it at their chosen multipliers and the rest as learnt: a
 /// coarse scan over `cfg.multipliers`, then a fine one of step `cfg.fine_step` around its
-/// best. Returns each body's chosen multiplier (`None`: not searched) and scan.
+/// best. With `cfg.refit_iters` set, the body's canonical Gaussians, spin and centroid path
+/// are then refitted from the chosen spin over every view (the private module `body_fit`):
+/// the body takes the fitted spin and path (its multiplier 1), and the model and `ctx` its
+/// fitted Gaussians. Returns each body's chosen multiplier (`None`: not searched) and scan.
 pub fn search(
     model: &mut Model<f32>,
-    ctx: &SearchContext<'_>,
-    bodies: &[Body],
+    ctx: &mut SearchContext<'_>,
+    bodies: &mut [Body],
     cfg: &SpinSearchConfig,
     stepper: &mut Option<Stepper<f32>>,
     log: &mut dyn FnMut(&str),
@@ -168,6 +172,23 @@ pub fn search(
         ));
         chosen[b] = Some(best);
         scans[b] = Some(s);
+        if cfg.refit_iters > 0 {
+            // The body's shape, spin and path refitted from the chosen spin; the body then
+            // carries the fitted spin and path (multiplier 1).
+            let spin = bodies[b].omega * best;
+            let fitted = adopt_body_refit(
+                model,
+                ctx,
+                (bodies, &chosen, b),
+                spin,
+                cfg.refit_iters,
+                stepper,
+                log,
+            );
+            bodies[b].omega = fitted.spin;
+            bodies[b].path = fitted.path;
+            chosen[b] = Some(1.0);
+        }
     }
     (chosen, scans)
 }
@@ -342,16 +363,23 @@ mod tests {
             })
             .collect();
         let mut model = static_model(&splats);
-        let ctx = test_context(&views, &splats, opts);
-        let bodies = [body_of(&splats, omega * 0.5, splats.len())];
+        let mut ctx = test_context(&views, &splats, opts);
+        let mut bodies = [body_of(&splats, omega * 0.5, splats.len())];
         let cfg = SpinSearchConfig {
             max_radius: 2.0,
             ..SpinSearchConfig::default()
         };
         let mut lines = Vec::new();
-        let (chosen, scans) = search(&mut model, &ctx, &bodies, &cfg, &mut None, &mut |m| {
-            lines.push(m.to_string());
-        });
+        let (chosen, scans) = search(
+            &mut model,
+            &mut ctx,
+            &mut bodies,
+            &cfg,
+            &mut None,
+            &mut |m| {
+                lines.push(m.to_string());
+            },
+        );
         assert_eq!(chosen, vec![Some(2.0)]);
         let scan = scans[0].as_ref().expect("searched");
         let at = |s: f64| {
@@ -369,8 +397,37 @@ mod tests {
             max_radius: bodies[0].radius * 0.5,
             ..cfg
         };
-        let (none, _) = search(&mut model, &ctx, &bodies, &small, &mut None, &mut |_| {});
+        let (none, _) = search(
+            &mut model,
+            &mut ctx,
+            &mut bodies,
+            &small,
+            &mut None,
+            &mut |_| {},
+        );
         assert_eq!(none, vec![None]);
+        // A coarse scan misses the spin (×1.5 of the learnt one, three quarters of the
+        // truth); a refit of the body from there finds it.
+        let coarse = SpinSearchConfig {
+            multipliers: vec![0.0, 1.0, 1.5],
+            fine_step: 0.0,
+            refit_iters: 150,
+            ..cfg
+        };
+        let (chosen, _) = search(
+            &mut model,
+            &mut ctx,
+            &mut bodies,
+            &coarse,
+            &mut None,
+            &mut |_| {},
+        );
+        assert_eq!(chosen, vec![Some(1.0)], "the body carries the fitted spin");
+        assert!(
+            (bodies[0].omega - omega).norm() < 0.05,
+            "{:?}",
+            bodies[0].omega
+        );
     }
 
     #[test]

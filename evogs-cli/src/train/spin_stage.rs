@@ -21,14 +21,14 @@ impl Trainer {
         let cfg = self.cfg.spin_search.clone();
         let mut stepper = None;
         let paths = Paths::record(&mut self.model, self.time_range, &mut stepper);
-        let ctx = search_context(
+        let mut ctx = search_context(
             &self.views,
             cfg.view_stride,
             &self.model.canonical,
             &self.cfg,
             self.par,
         );
-        let bodies = find_bodies(&paths, &ctx.p0, &cfg);
+        let mut bodies = find_bodies(&paths, &ctx.p0, &cfg);
         for (b, body) in bodies.iter().enumerate() {
             log(&format!(
                 "spin search: body {b}: {} Gaussians ({} moving) about {:.3?}, radius {:.3}, learnt spin {:.3} rad per unit time, rigid-fit RMS {:.4}",
@@ -40,7 +40,14 @@ impl Trainer {
                 body.rigid_rms
             ));
         }
-        let (chosen, _) = search(&mut self.model, &ctx, &bodies, &cfg, &mut stepper, log);
+        let (chosen, _) = search(
+            &mut self.model,
+            &mut ctx,
+            &mut bodies,
+            &cfg,
+            &mut stepper,
+            log,
+        );
         if chosen.iter().any(Option::is_some) {
             let lr = self.refit_rates();
             refit(
