@@ -559,20 +559,20 @@ pub(super) fn adopt_best_refit(
     o
 }
 
-/// The spin search's refit of `bodies[b]` spinning at `spin` along its learnt centroid path:
-/// its canonical Gaussians, spin and path samples fitted over every view of `ctx`, the
-/// bodies chosen before it placed at their spins (`chosen`). The result goes into `model` and
-/// `ctx`, and is returned.
+/// The spin search's refits of `bodies[b]` from each of `spins` along its learnt centroid
+/// path: its canonical Gaussians, spin and path samples fitted over every view of `ctx`, the
+/// bodies chosen before it placed at their spins (`chosen`). The best refit goes into `model`
+/// and `ctx`, and is returned.
 #[allow(clippy::too_many_arguments, reason = "the search's whole state")]
 pub(super) fn adopt_body_refit(
     model: &mut Model<f32>,
     ctx: &mut SearchContext<'_>,
     (bodies, chosen, b): (&[Body], &[Option<f64>], usize),
-    spin: Vec3<f64>,
+    spins: &[Vec3<f64>],
     iters: usize,
     stepper: &mut Option<Stepper<f32>>,
     log: &mut dyn FnMut(&str),
-) -> BodyParams {
+) -> Option<BodyParams> {
     let body = &bodies[b];
     let mut frames = Frames::new(model, ctx, (body.range, f64::INFINITY), stepper);
     frames.for_each_state(|t, st| {
@@ -583,28 +583,29 @@ pub(super) fn adopt_body_refit(
         }
     });
     let sub = Subject::body(body);
-    let start = BodyParams::gather(&model.canonical, &body.members, spin, body.path.clone());
-    let (_, before) = refit_body(ctx, &frames, sub, &start, 0, ctx.par);
-    let (fitted, after) = refit_body(ctx, &frames, sub, &start, iters, ctx.par);
-    let (c_start, c_end) = (
-        body.centre(body.range.0).0,
-        fitted
-            .path
-            .at(sub.c0, sub.range, sub.range.0 + sub.range.1)
-            .0,
+    let start = BodyParams::gather(
+        &model.canonical,
+        &body.members,
+        Vec3::zero(),
+        body.path.clone(),
     );
+    let fits = refit_spins(ctx, &frames, sub, &start, spins, iters);
+    let best = (0..fits.len()).min_by(|&i, &j| fits[i].1.total_cmp(&fits[j].1))?;
+    let each: Vec<String> = spins
+        .iter()
+        .zip(&fits)
+        .map(|(s, f)| format!("{:.2} -> {:.2} ({:.4e})", s.norm(), f.0.spin.norm(), f.1))
+        .collect();
+    let fitted = fits.into_iter().nth(best)?.0;
     log(&format!(
-        "spin search: body {b}: refit over {} views, {iters} steps: spin {:.3?} (|{:.3}|) -> {:.3?} (|{:.3}|), loss per view {before:.4e} -> {after:.4e}, path from {:.3?} to {:.3?}",
+        "spin search: body {b}: refits over {} views, {iters} steps, spin |start| -> |end| (loss per view): {}; kept spin {:.3?} (|{:.3}|)",
         frames.len(),
-        spin.to_array(),
-        spin.norm(),
+        each.join(", "),
         fitted.spin.to_array(),
         fitted.spin.norm(),
-        c_start.to_array(),
-        c_end.to_array(),
     ));
     fitted.scatter(&body.members, &mut model.canonical, ctx);
-    fitted
+    Some(fitted)
 }
 
 #[cfg(test)]

@@ -60,8 +60,12 @@ pub struct SpinSearchConfig {
     /// Adam steps of the velocity regression that teaches the field the chosen spins.
     pub fit_iters: usize,
     /// Adam steps of a refit of each searched body's canonical Gaussians, spin and centroid
-    /// path from its chosen spin, over the views (0: none).
+    /// path from its chosen spin, over the views (0: none). The best refit is kept.
     pub refit_iters: usize,
+    /// Spin rates (radians per unit time) about the learnt axis that are refitted too: a body
+    /// fitted under a slow learnt motion is smeared, and its scan may not show the true
+    /// spin until its shape is refitted.
+    pub refit_speeds: Vec<f64>,
 }
 
 impl Default for SpinSearchConfig {
@@ -82,6 +86,7 @@ impl Default for SpinSearchConfig {
             fine_step: 0.0625,
             fit_iters: 1000,
             refit_iters: 0,
+            refit_speeds: Vec::new(),
         }
     }
 }

@@ -173,21 +173,25 @@ pub fn search(
         chosen[b] = Some(best);
         scans[b] = Some(s);
         if cfg.refit_iters > 0 {
-            // The body's shape, spin and path refitted from the chosen spin; the body then
-            // carries the fitted spin and path (multiplier 1).
-            let spin = bodies[b].omega * best;
-            let fitted = adopt_body_refit(
+            // The body's shape, spin and path refitted from the chosen spin and from each of
+            // `refit_speeds` about the learnt axis; the body then carries the best refit's
+            // spin and path (multiplier 1).
+            let axis = bodies[b].omega * (1.0 / bodies[b].omega.norm());
+            let mut spins = vec![bodies[b].omega * best];
+            spins.extend(cfg.refit_speeds.iter().map(|&v| axis * v));
+            if let Some(fitted) = adopt_body_refit(
                 model,
                 ctx,
                 (bodies, &chosen, b),
-                spin,
+                &spins,
                 cfg.refit_iters,
                 stepper,
                 log,
-            );
-            bodies[b].omega = fitted.spin;
-            bodies[b].path = fitted.path;
-            chosen[b] = Some(1.0);
+            ) {
+                bodies[b].omega = fitted.spin;
+                bodies[b].path = fitted.path;
+                chosen[b] = Some(1.0);
+            }
         }
     }
     (chosen, scans)
@@ -395,7 +399,7 @@ mod tests {
         // A body too large is not searched.
         let small = SpinSearchConfig {
             max_radius: bodies[0].radius * 0.5,
-            ..cfg
+            ..cfg.clone()
         };
         let (none, _) = search(
             &mut model,
@@ -407,11 +411,12 @@ mod tests {
         );
         assert_eq!(none, vec![None]);
         // A coarse scan misses the spin (×1.5 of the learnt one, three quarters of the
-        // truth); a refit of the body from there finds it.
+        // truth); refits of the body from there and from two more rates find it.
         let coarse = SpinSearchConfig {
             multipliers: vec![0.0, 1.0, 1.5],
             fine_step: 0.0,
             refit_iters: 150,
+            refit_speeds: vec![0.5, 3.5],
             ..cfg
         };
         let (chosen, _) = search(
