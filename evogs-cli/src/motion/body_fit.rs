@@ -38,7 +38,9 @@ use evogs_ode::Stepper;
 use evogs_splat::loss::{photometric_loss, photometric_loss_and_grad};
 use evogs_splat::ssim::SsimWorkspace;
 use evogs_splat::{
-    Image, PixelGrad, RenderOptions, Splats, TiledRasterizer, render_tiled, render_tiled_vjp,
+    CameraGrad, DensifyStats, Image, PixelGrad, Preprocessed, RasterInputGrad, RasterOutput,
+    Render, RenderGrad, RenderOptions, Splats, TiledRasterizer, render_tiled, render_tiled_into,
+    render_tiled_vjp_into,
 };
 
 /// Adam rates of a refit (per step, before the decay): positions (scene units), raw
@@ -392,6 +394,19 @@ pub(super) fn refit_body(
     let mut order: Vec<usize> = (0..frames.len()).collect();
     let mut rng = SplitMix64::new(ORDER_SEED);
     let mut d_image = Image::new(0, 0);
+    // Render buffers, kept across the steps (the rasterizer sizes them to each view).
+    let mut fwd = Render {
+        pre: Preprocessed::default(),
+        raster: RasterOutput::new(0, 0, opts.background),
+    };
+    let mut grad = RenderGrad {
+        splats: Splats::default(),
+        camera: CameraGrad::zero(),
+        raster: RasterInputGrad::default(),
+        background: [0.0; 3],
+        densify: DensifyStats::default(),
+    };
+    let mut g32 = Vec::new();
     for k in 0..iters {
         if frames.len() == 0 {
             break;
@@ -405,7 +420,7 @@ pub(super) fn refit_body(
         let (v, st) = (frames.views[order[e]], &frames.states[order[e]]);
         ws.probe.clone_from(st);
         place_params(&mut ws.probe, sub, &params, v.time);
-        let fwd = render_tiled(&ws.probe, &v.camera, &opts, &mut ws.rast);
+        render_tiled_into(&ws.probe, &v.camera, &opts, &mut ws.rast, &mut fwd);
         let (w, h) = (v.image.width(), v.image.height());
         if d_image.width() != w || d_image.height() != h {
             d_image = Image::new(w, h);
@@ -420,7 +435,7 @@ pub(super) fn refit_body(
             &mut d_image,
             opts.par,
         );
-        let g = render_tiled_vjp(
+        render_tiled_vjp_into(
             &ws.probe,
             &v.camera,
             &opts,
@@ -431,8 +446,9 @@ pub(super) fn refit_body(
                 alpha: None,
                 depth: None,
             },
-        )
-        .splats;
+            &mut grad,
+        );
+        let g = &grad.splats;
         // Back to the canonical members, the spin and the path.
         let tau = v.time - t0;
         let (mut g_spin, mut g_c) = (Vec3::<f64>::zero(), Vec3::<f64>::zero());
@@ -473,7 +489,8 @@ pub(super) fn refit_body(
         params.splats.read_flat(&flat);
         for (st, &(lo, hi, rate)) in path_adam.iter_mut().zip(&path_blocks) {
             #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
-            let g32: Vec<f32> = g_path[lo..hi].iter().map(|&x| x as f32).collect();
+            g32.clear();
+            g32.extend(g_path[lo..hi].iter().map(|&x| x as f32));
             st.step(&hyper, rate * decay, &mut path_flat[lo..hi], &g32);
         }
         params.set_path_flat(&path_flat);
