@@ -488,8 +488,8 @@ pub(super) fn refit_body(
         }
         params.splats.read_flat(&flat);
         for (st, &(lo, hi, rate)) in path_adam.iter_mut().zip(&path_blocks) {
-            #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
             g32.clear();
+            #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
             g32.extend(g_path[lo..hi].iter().map(|&x| x as f32));
             st.step(&hyper, rate * decay, &mut path_flat[lo..hi], &g32);
         }
