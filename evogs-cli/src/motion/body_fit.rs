@@ -26,7 +26,7 @@
 
 use super::bodies::{Body, CentrePath, Paths, circle_point_vjp};
 use super::orbit::{Group, Orbit};
-use super::spin::{SearchContext, place};
+use super::spin::SearchContext;
 use crate::model::Model;
 use crate::train::adam::{Adam, AdamState};
 use crate::train::step::ViewData;
@@ -39,13 +39,14 @@ use evogs_splat::loss::{photometric_loss, photometric_loss_and_grad};
 use evogs_splat::ssim::SsimWorkspace;
 use evogs_splat::{
     CameraGrad, DensifyStats, Image, PixelGrad, Preprocessed, RasterInputGrad, RasterOutput,
-    Render, RenderGrad, RenderOptions, Splats, TiledRasterizer, render_tiled, render_tiled_into,
+    Render, RenderGrad, RenderOptions, Splats, TiledRasterizer, render_tiled_into,
     render_tiled_vjp_into,
 };
 
-/// Adam rates of a refit (per step, before the decay): positions (scene units), raw
-/// quaternions, log-scales, opacity logits, SH coefficients.
-const RATES: [f64; 5] = [1e-3, 2e-3, 5e-3, 0.05, 2.5e-3];
+/// Adam rates of a refit (per step, before the decay), in the blocks of
+/// [`Splats::write_flat`]: positions (scene units), log-scales, raw quaternions, opacity
+/// logits, SH coefficients.
+const RATES: [f64; 5] = [1e-3, 5e-3, 2e-3, 0.05, 2.5e-3];
 /// Adam rates of the centroid path's points (an orbit's centre, a learnt path's samples;
 /// scene units), an orbit's angular velocity and the body's spin (radians per unit time).
 const PATH_RATES: [f64; 3] = [1e-3, 0.02, 0.05];
@@ -207,12 +208,7 @@ impl<'v> Frames<'v> {
         (range, horizon): ((f64, f64), f64),
         stepper: &mut Option<Stepper<f32>>,
     ) -> Self {
-        let views: Vec<&ViewData<f32>> = ctx
-            .views
-            .iter()
-            .copied()
-            .filter(|v| v.time - range.0 <= horizon * range.1)
-            .collect();
+        let views: Vec<&ViewData<f32>> = ctx.views_to((range, horizon)).collect();
         let states = views
             .iter()
             .map(|v| {
@@ -314,12 +310,49 @@ fn place_params(st: &mut Splats<f32>, sub: Subject<'_>, params: &BodyParams, t: 
     }
 }
 
-/// Buffers of one refit.
-#[derive(Default)]
+/// Buffers of one refit, kept across its steps (the rasterizer sizes them to each view).
 struct Workspace {
     rast: TiledRasterizer<f32>,
     ssim: SsimWorkspace<f32>,
     probe: Splats<f32>,
+    fwd: Render<f32>,
+    grad: RenderGrad<f32>,
+    d_image: Image<f32>,
+}
+
+impl Workspace {
+    fn new(background: [f32; 3]) -> Self {
+        Self {
+            rast: TiledRasterizer::new(),
+            ssim: SsimWorkspace::default(),
+            probe: Splats::default(),
+            fwd: Render {
+                pre: Preprocessed::default(),
+                raster: RasterOutput::new(0, 0, background),
+            },
+            grad: RenderGrad {
+                splats: Splats::default(),
+                camera: CameraGrad::zero(),
+                raster: RasterInputGrad::default(),
+                background: [0.0; 3],
+                densify: DensifyStats::default(),
+            },
+            d_image: Image::new(0, 0),
+        }
+    }
+
+    /// Renders `st` with the body posed from `params` at view `v`'s time into `self.fwd`.
+    fn render(
+        &mut self,
+        (st, v): (&Splats<f32>, &ViewData<f32>),
+        sub: Subject<'_>,
+        params: &BodyParams,
+        opts: &RenderOptions<f32>,
+    ) {
+        self.probe.clone_from(st);
+        place_params(&mut self.probe, sub, params, v.time);
+        render_tiled_into(&self.probe, &v.camera, opts, &mut self.rast, &mut self.fwd);
+    }
 }
 
 /// Mean photometric loss per view of `frames` with the body posed from `params`.
@@ -333,12 +366,10 @@ fn mean_loss(
 ) -> f64 {
     let mut total = 0.0;
     for (v, st) in frames.views.iter().zip(&frames.states) {
-        ws.probe.clone_from(st);
-        place_params(&mut ws.probe, body, params, v.time);
-        let r = render_tiled(&ws.probe, &v.camera, opts, &mut ws.rast);
-        total += f64::from(
-            photometric_loss(&mut ws.ssim, &r.raster.rgb, &v.image, ctx.lambda, opts.par).total,
-        );
+        ws.render((st, v), body, params, opts);
+        let rgb = &ws.fwd.raster.rgb;
+        total +=
+            f64::from(photometric_loss(&mut ws.ssim, rgb, &v.image, ctx.lambda, opts.par).total);
     }
     #[allow(clippy::cast_precision_loss, reason = "a count")]
     let n = frames.len().max(1) as f64;
@@ -369,14 +400,13 @@ pub(super) fn refit_body(
 ) -> (BodyParams, f64) {
     let opts = RenderOptions { par, ..ctx.opts };
     let (members, c0, t0) = (sub.members, sub.c0, sub.range.0);
-    let mut ws = Workspace::default();
+    let mut ws = Workspace::new(opts.background);
     let mut params = start.clone();
     let n = params.splats.len();
     let mut flat = Vec::new();
     params.splats.write_flat(&mut flat);
     // The flat layout's blocks: means, log-scales, quaternions, opacity logits, SH.
     let bounds = [0, 3 * n, 6 * n, 10 * n, 11 * n, flat.len()];
-    let rate_of_block = [RATES[0], RATES[2], RATES[1], RATES[3], RATES[4]];
     let mut adam: Vec<AdamState> = bounds
         .windows(2)
         .map(|w| AdamState::new(w[1] - w[0]))
@@ -393,19 +423,6 @@ pub(super) fn refit_body(
     let mut gflat = Vec::new();
     let mut order: Vec<usize> = (0..frames.len()).collect();
     let mut rng = SplitMix64::new(ORDER_SEED);
-    let mut d_image = Image::new(0, 0);
-    // Render buffers, kept across the steps (the rasterizer sizes them to each view).
-    let mut fwd = Render {
-        pre: Preprocessed::default(),
-        raster: RasterOutput::new(0, 0, opts.background),
-    };
-    let mut grad = RenderGrad {
-        splats: Splats::default(),
-        camera: CameraGrad::zero(),
-        raster: RasterInputGrad::default(),
-        background: [0.0; 3],
-        densify: DensifyStats::default(),
-    };
     let mut g32 = Vec::new();
     for k in 0..iters {
         if frames.len() == 0 {
@@ -418,21 +435,19 @@ pub(super) fn refit_body(
             }
         }
         let (v, st) = (frames.views[order[e]], &frames.states[order[e]]);
-        ws.probe.clone_from(st);
-        place_params(&mut ws.probe, sub, &params, v.time);
-        render_tiled_into(&ws.probe, &v.camera, &opts, &mut ws.rast, &mut fwd);
+        ws.render((st, v), sub, &params, &opts);
         let (w, h) = (v.image.width(), v.image.height());
-        if d_image.width() != w || d_image.height() != h {
-            d_image = Image::new(w, h);
+        if ws.d_image.width() != w || ws.d_image.height() != h {
+            ws.d_image = Image::new(w, h);
         }
-        d_image.data_mut().fill(0.0);
+        ws.d_image.data_mut().fill(0.0);
         photometric_loss_and_grad(
             &mut ws.ssim,
-            &fwd.raster.rgb,
+            &ws.fwd.raster.rgb,
             &v.image,
             ctx.lambda,
             1.0,
-            &mut d_image,
+            &mut ws.d_image,
             opts.par,
         );
         render_tiled_vjp_into(
@@ -440,15 +455,15 @@ pub(super) fn refit_body(
             &v.camera,
             &opts,
             &mut ws.rast,
-            &fwd,
+            &ws.fwd,
             &PixelGrad {
-                rgb: d_image.data(),
+                rgb: ws.d_image.data(),
                 alpha: None,
                 depth: None,
             },
-            &mut grad,
+            &mut ws.grad,
         );
-        let g = &grad.splats;
+        let g = &ws.grad.splats;
         // Back to the canonical members, the spin and the path.
         let tau = v.time - t0;
         let (mut g_spin, mut g_c) = (Vec3::<f64>::zero(), Vec3::<f64>::zero());
@@ -479,12 +494,7 @@ pub(super) fn refit_body(
         grad_members.write_flat(&mut gflat);
         for (b, st) in adam.iter_mut().enumerate() {
             let (lo, hi) = (bounds[b], bounds[b + 1]);
-            st.step(
-                &hyper,
-                rate_of_block[b] * decay,
-                &mut flat[lo..hi],
-                &gflat[lo..hi],
-            );
+            st.step(&hyper, RATES[b] * decay, &mut flat[lo..hi], &gflat[lo..hi]);
         }
         params.splats.read_flat(&flat);
         for (st, &(lo, hi, rate)) in path_adam.iter_mut().zip(&path_blocks) {
@@ -503,126 +513,6 @@ pub(super) fn refit_body(
     }
     let loss = mean_loss(ctx, frames, sub, &params, &opts, &mut ws);
     (params, loss)
-}
-
-/// [`refit_body`] from `start` turned at each of `spins`, the refits shared among the threads
-/// when `ctx.par` is parallel (each refit's own renders sequential, so the results do not
-/// depend on the thread count; a single refit's renders take the threads). Returns the
-/// fitted parameters and losses in `spins`' order.
-pub(super) fn refit_spins(
-    ctx: &SearchContext<'_>,
-    frames: &Frames<'_>,
-    body: Subject<'_>,
-    start: &BodyParams,
-    spins: &[Vec3<f64>],
-    iters: usize,
-) -> Vec<(BodyParams, f64)> {
-    let from = |s: &Vec3<f64>| BodyParams {
-        spin: *s,
-        ..start.clone()
-    };
-    if let [s] = spins {
-        return vec![refit_body(ctx, frames, body, &from(s), iters, ctx.par)];
-    }
-    let one = |s: &Vec3<f64>| refit_body(ctx, frames, body, &from(s), iters, Par::Seq);
-    match ctx.par {
-        Par::Seq => spins.iter().map(one).collect(),
-        #[cfg(feature = "rayon")]
-        Par::Rayon => {
-            use rayon::prelude::*;
-            spins.par_iter().map(one).collect()
-        }
-    }
-}
-
-/// The orbit search's refit stage: refits `group` from `orbit` with each of `spins` over the
-/// views to `horizon` (fraction of `range`) with `iters` steps each, and adopts the best: its
-/// members' canonical parameters go into `model` and `ctx`. Returns the best refit's orbit.
-pub(super) fn adopt_best_refit(
-    model: &mut Model<f32>,
-    ctx: &mut SearchContext<'_>,
-    (group, orbit, range): (&Group, Orbit, (f64, f64)),
-    spins: &[Vec3<f64>],
-    (horizon, iters): (f64, usize),
-    stepper: &mut Option<Stepper<f32>>,
-    log: &mut dyn FnMut(&str),
-) -> Orbit {
-    let frames = Frames::new(model, ctx, (range, horizon), stepper);
-    let start = BodyParams::orbit(&model.canonical, &group.members, &orbit);
-    let body = Subject::group(group, range);
-    let (_, before) = refit_body(ctx, &frames, body, &start, 0, ctx.par);
-    let fits = refit_spins(ctx, &frames, body, &start, spins, iters);
-    let Some(best) = (0..fits.len()).min_by(|&i, &j| fits[i].1.total_cmp(&fits[j].1)) else {
-        return orbit;
-    };
-    let worst = fits.iter().map(|f| f.1).fold(f64::NEG_INFINITY, f64::max);
-    let Some(o) = fits[best].0.as_orbit() else {
-        return orbit;
-    };
-    log(&format!(
-        "orbit search: refit from {} spins over {} views to {horizon:.2}, {iters} steps each: spin {:.2?} -> {:.2?}, |Ω| {:.3} -> {:.3}, centre moved {:.3}, loss per view {before:.4e} before, {:.4e} after (the worst refit {worst:.4e})",
-        spins.len(),
-        frames.len(),
-        spins[best].to_array(),
-        o.spin.to_array(),
-        orbit.omega.norm(),
-        o.omega.norm(),
-        (o.centre - orbit.centre).norm(),
-        fits[best].1,
-    ));
-    fits[best]
-        .0
-        .scatter(&group.members, &mut model.canonical, ctx);
-    o
-}
-
-/// The spin search's refits of `bodies[b]` from each of `spins` along its learnt centroid
-/// path: its canonical Gaussians, spin and path samples fitted over every view of `ctx`, the
-/// bodies chosen before it placed at their spins (`chosen`). The best refit goes into `model`
-/// and `ctx`, and is returned.
-#[allow(clippy::too_many_arguments, reason = "the search's whole state")]
-pub(super) fn adopt_body_refit(
-    model: &mut Model<f32>,
-    ctx: &mut SearchContext<'_>,
-    (bodies, chosen, b): (&[Body], &[Option<f64>], usize),
-    spins: &[Vec3<f64>],
-    iters: usize,
-    stepper: &mut Option<Stepper<f32>>,
-    log: &mut dyn FnMut(&str),
-) -> Option<BodyParams> {
-    let body = &bodies[b];
-    let mut frames = Frames::new(model, ctx, (body.range, f64::INFINITY), stepper);
-    frames.for_each_state(|t, st| {
-        for (c, other) in bodies.iter().enumerate() {
-            if let (true, Some(s)) = (c != b, chosen[c]) {
-                place(st, other, t, s, &ctx.p0, &ctx.q0, &ctx.log_scales);
-            }
-        }
-    });
-    let sub = Subject::body(body);
-    let start = BodyParams::gather(
-        &model.canonical,
-        &body.members,
-        Vec3::zero(),
-        body.path.clone(),
-    );
-    let fits = refit_spins(ctx, &frames, sub, &start, spins, iters);
-    let best = (0..fits.len()).min_by(|&i, &j| fits[i].1.total_cmp(&fits[j].1))?;
-    let each: Vec<String> = spins
-        .iter()
-        .zip(&fits)
-        .map(|(s, f)| format!("{:.2} -> {:.2} ({:.4e})", s.norm(), f.0.spin.norm(), f.1))
-        .collect();
-    let fitted = fits.into_iter().nth(best)?.0;
-    log(&format!(
-        "spin search: body {b}: refits over {} views, {iters} steps, spin |start| -> |end| (loss per view): {}; kept spin {:.3?} (|{:.3}|)",
-        frames.len(),
-        each.join(", "),
-        fitted.spin.to_array(),
-        fitted.spin.norm(),
-    ));
-    fitted.scatter(&body.members, &mut model.canonical, ctx);
-    Some(fitted)
 }
 
 #[cfg(test)]

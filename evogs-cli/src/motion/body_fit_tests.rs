@@ -5,11 +5,8 @@ use super::*;
 use crate::motion::OrbitSearchConfig;
 use crate::motion::bodies::{GRID, circle_point, circle_point_vjp};
 use crate::motion::orbit::{canonical_groups, search};
-use crate::motion::spin::place;
-use crate::motion::test_support::{
-    canonical_poses, orbit_test_cfg, rendered_view, static_model, test_context, two_camera_views,
-    two_groups,
-};
+use crate::motion::refit_stage::refit_spins;
+use crate::motion::test_support::{orbit_test_cfg, static_model, test_context, tumbling_rod};
 use crate::train::step::render_options;
 
 #[test]
@@ -124,32 +121,11 @@ fn path_vjp_matches_central_differences_for_circles_and_samples() {
     }
 }
 
-/// The tumbling-rod scene of the orbit tests, its views rendered with the truth, and the
-/// rod's group, orbit and true spin; the canonical rod of the returned splats is squashed
+/// [`tumbling_rod`]'s splats, views, the rod's group and its true orbit; the canonical rod of the returned splats is squashed
 /// along the first camera's axis (z) and shifted, as a fit to one view leaves it.
 pub(super) fn squashed_rod() -> (Splats<f32>, Vec<ViewData<f32>>, Group, Orbit) {
-    let (mut splats, camera) = two_groups();
+    let (mut splats, views, groups, truth) = tumbling_rod();
     let c = Vec3::new(0.6, 0.0, 0.0);
-    for m in &mut splats.means[200..] {
-        let d = m.cast::<f64>() - c;
-        *m = (c + Vec3::new(d.x * 1.8, d.y * 0.5, d.z * 0.5)).cast();
-    }
-    let (p0, q0) = canonical_poses(&splats);
-    let groups = canonical_groups(&p0, &splats.opacity_logits, &orbit_test_cfg());
-    let truth = Orbit::through(
-        groups[1].centroid,
-        groups[0].centroid,
-        Vec3::new(0.0, 2.4, 0.0),
-    )
-    .with_spin(Vec3::new(0.0, 3.0, 1.0));
-    let body = truth.body(&groups[1], (0.0, 1.0));
-    let opts = render_options([1.0; 3], splats.sh_degree, Par::Seq);
-    let mut rast = TiledRasterizer::new();
-    let views = two_camera_views(camera, |time, camera| {
-        let mut st = splats.clone();
-        place(&mut st, &body, time, 1.0, &p0, &q0, &splats.log_scales);
-        rendered_view(&st, camera, time, &opts, &mut rast)
-    });
     let mut rng = SplitMix64::new(9);
     for m in &mut splats.means[200..] {
         let d = m.cast::<f64>() - c;

@@ -23,6 +23,7 @@ mod body_fit;
 pub mod orbit;
 mod orbit_refine;
 mod orbit_score;
+mod refit_stage;
 pub mod spin;
 #[cfg(test)]
 pub(crate) mod test_support;

@@ -27,9 +27,9 @@
 
 use super::OrbitSearchConfig;
 use super::bodies::{Body, CentrePath, components};
-use super::body_fit::adopt_best_refit;
 use super::orbit_refine::{polish, spin_grid};
 use super::orbit_score::pick;
+use super::refit_stage::adopt_best_refit;
 use super::spin::SearchContext;
 use evogs_math::Vec3;
 use evogs_math::activation::sigmoid;

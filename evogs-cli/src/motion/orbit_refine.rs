@@ -118,45 +118,17 @@ pub(super) fn polish(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::orbit::{canonical_groups, search};
-    use crate::motion::spin::place;
-    use crate::motion::test_support::{
-        canonical_poses, orbit_test_cfg, rendered_view, static_model, test_context,
-        two_camera_views, two_groups,
-    };
+    use crate::motion::orbit::search;
+    use crate::motion::test_support::{orbit_test_cfg, static_model, test_context, tumbling_rod};
     use crate::train::step::render_options;
     use evogs_math::Par;
-    use evogs_splat::TiledRasterizer;
 
     #[test]
     fn the_search_finds_a_tumbling_body_s_own_spin() {
-        let (mut splats, camera) = two_groups();
-        // The small group stretched into a rod along x, so that its own turn shows.
-        let c = Vec3::new(0.6, 0.0, 0.0);
-        for m in &mut splats.means[200..] {
-            let d = m.cast::<f64>() - c;
-            *m = (c + Vec3::new(d.x * 1.8, d.y * 0.5, d.z * 0.5)).cast();
-        }
-        let (p0, q0) = canonical_poses(&splats);
+        // A rod circling the large group while it tumbles.
+        let (splats, views, groups, truth) = tumbling_rod();
         let cfg = orbit_test_cfg();
-        let groups = canonical_groups(&p0, &splats.opacity_logits, &cfg);
-        assert_eq!(groups.len(), 2);
-        // The rod circles the large group at 4 rad per unit time about z while it tumbles
-        // about (0, 3, 1).
-        let truth = Orbit::through(
-            groups[1].centroid,
-            groups[0].centroid,
-            Vec3::new(0.0, 2.4, 0.0),
-        )
-        .with_spin(Vec3::new(0.0, 3.0, 1.0));
-        let body = truth.body(&groups[1], (0.0, 1.0));
         let opts = render_options([1.0; 3], splats.sh_degree, Par::Seq);
-        let mut rast = TiledRasterizer::new();
-        let views = two_camera_views(camera, |time, camera| {
-            let mut st = splats.clone();
-            place(&mut st, &body, time, 1.0, &p0, &q0, &splats.log_scales);
-            rendered_view(&st, camera, time, &opts, &mut rast)
-        });
         let mut model = static_model(&splats);
         let mut ctx = test_context(&views, &splats, opts);
         let mut lines = Vec::new();

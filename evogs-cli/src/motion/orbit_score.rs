@@ -82,11 +82,7 @@ pub(super) fn score(
     let chunk = bodies.len().div_ceil(workers);
     let mut total = vec![0.0; bodies.len() + 1];
     let mut count = 0usize;
-    for v in ctx
-        .views
-        .iter()
-        .filter(|v| v.time - range.0 <= horizon * range.1)
-    {
+    for v in ctx.views_to((range, horizon)) {
         count += 1;
         model.splats_at(v.time, stepper, &mut st);
         // Last, the model's own motion.

@@ -2,7 +2,7 @@
 
 use super::SpinSearchConfig;
 use super::bodies::{Body, Paths};
-use super::body_fit::adopt_body_refit;
+use super::refit_stage::adopt_body_refit;
 use crate::model::Model;
 use crate::train::adam::{Adam, AdamState};
 use crate::train::step::ViewData;
@@ -62,6 +62,19 @@ pub struct SearchContext<'a> {
     pub log_scales: Vec<Vec3<f32>>,
     /// Parallelism of the loss.
     pub par: Par,
+}
+
+impl<'a> SearchContext<'a> {
+    /// The views up to `horizon` (fraction of `range`: start, length).
+    pub(crate) fn views_to(
+        &self,
+        (range, horizon): ((f64, f64), f64),
+    ) -> impl Iterator<Item = &'a ViewData<f32>> + '_ {
+        self.views
+            .iter()
+            .copied()
+            .filter(move |v| v.time - range.0 <= horizon * range.1)
+    }
 }
 
 /// Scans body `b`'s multiplier over `mults`; bodies with `chosen[c]` set are spun by it.

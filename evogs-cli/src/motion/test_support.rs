@@ -2,7 +2,9 @@
 //! of a scene with some of its Gaussians turned rigidly.
 
 use super::OrbitSearchConfig;
+use super::orbit::{Group, Orbit, canonical_groups};
 use super::spin::SearchContext;
+use super::spin::place;
 use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use crate::model::{Model, Motion, Waypoints};
 use crate::train::step::ViewData;
@@ -172,4 +174,35 @@ pub(crate) fn orbit_test_cfg() -> OrbitSearchConfig {
         min_gain: 0.0,
         ..OrbitSearchConfig::default()
     }
+}
+
+/// [`two_groups`] with the small group stretched into a rod along x (so that its own turn
+/// shows), circling the large group at 4 rad per unit time about z while it tumbles about
+/// (0, 3, 1), and [`two_camera_views`] of it: the splats, the views, the groups and the
+/// rod's true orbit.
+pub(crate) fn tumbling_rod() -> (Splats<f32>, Vec<ViewData<f32>>, Vec<Group>, Orbit) {
+    let (mut splats, camera) = two_groups();
+    let c = Vec3::new(0.6, 0.0, 0.0);
+    for m in &mut splats.means[200..] {
+        let d = m.cast::<f64>() - c;
+        *m = (c + Vec3::new(d.x * 1.8, d.y * 0.5, d.z * 0.5)).cast();
+    }
+    let (p0, q0) = canonical_poses(&splats);
+    let groups = canonical_groups(&p0, &splats.opacity_logits, &orbit_test_cfg());
+    assert_eq!(groups.len(), 2);
+    let truth = Orbit::through(
+        groups[1].centroid,
+        groups[0].centroid,
+        Vec3::new(0.0, 2.4, 0.0),
+    )
+    .with_spin(Vec3::new(0.0, 3.0, 1.0));
+    let body = truth.body(&groups[1], (0.0, 1.0));
+    let opts = crate::train::step::render_options([1.0; 3], splats.sh_degree, Par::Seq);
+    let mut rast = TiledRasterizer::new();
+    let views = two_camera_views(camera, |time, camera| {
+        let mut st = splats.clone();
+        place(&mut st, &body, time, 1.0, &p0, &q0, &splats.log_scales);
+        rendered_view(&st, camera, time, &opts, &mut rast)
+    });
+    (splats, views, groups, truth)
 }
