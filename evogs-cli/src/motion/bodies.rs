@@ -4,6 +4,7 @@
 //! z)` rotating body to world; times are the dataset's, over the training range `[t₀, t₁]`.
 
 use super::SpinSearchConfig;
+use super::ballistic::Ballistic;
 use crate::model::Model;
 use evogs_math::so3::exp_quat;
 use evogs_math::so3_jacobians::left_jacobian;
@@ -99,6 +100,8 @@ pub enum CentrePath {
         /// Angular velocity (world frame, radians per unit time).
         omega: Vec3<f64>,
     },
+    /// A thrown body's flight, bouncing on a floor (its own start point; [`Ballistic`]).
+    Ballistic(Ballistic),
 }
 
 impl CentrePath {
@@ -118,6 +121,7 @@ impl CentrePath {
                 let rate = (b - a) * (GRID as f64 / span);
                 (a + (b - a) * f, rate)
             }
+            Self::Ballistic(b) => b.at(t - t_lo),
         }
     }
 }
@@ -169,6 +173,17 @@ impl Body {
     #[must_use]
     pub fn centre(&self, t: f64) -> (Vec3<f64>, Vec3<f64>) {
         self.path.at(self.c0, self.range, t)
+    }
+
+    /// The largest distance of the centroid's path from its start (for a sampled path, over
+    /// its samples; for an orbit or a flight, over the grid times).
+    #[must_use]
+    pub fn travel(&self) -> f64 {
+        let (t_lo, span) = self.range;
+        let start = self.centre(t_lo).0;
+        (0..=GRID)
+            .map(|k| (self.centre(Paths::grid_time(t_lo, span, k)).0 - start).norm())
+            .fold(0.0, f64::max)
     }
 
     /// Position and orientation at `t`, with the spin multiplied by `s`, of a Gaussian at
@@ -478,6 +493,30 @@ mod tests {
         let fd = (b.pose(t + h, 2.0, p0[i], q0).0 - b.pose(t - h, 2.0, p0[i], q0).0) * (0.5 / h);
         assert!((v - fd).norm() < 1e-6, "{v:?} vs {fd:?}");
         assert!((w - omega * 2.0).norm() < 1e-12);
+    }
+
+    #[test]
+    fn travel_is_the_farthest_the_centroid_gets() {
+        // Half a turn of a circle of radius 1 over the range: a diameter.
+        let body = Body {
+            members: Vec::new(),
+            moving: 0,
+            c0: Vec3::new(1.0, 0.0, 0.0),
+            radius: 0.1,
+            path: CentrePath::Circle {
+                centre: Vec3::zero(),
+                omega: Vec3::new(0.0, 0.0, std::f64::consts::PI / 2.0),
+            },
+            omega: Vec3::zero(),
+            rigid_rms: 0.0,
+            range: (1.0, 2.0),
+        };
+        assert!((body.travel() - 2.0).abs() < 1e-12, "{}", body.travel());
+        let still = Body {
+            path: CentrePath::Sampled(vec![body.c0; GRID + 1]),
+            ..body
+        };
+        assert!(still.travel() == 0.0);
     }
 
     #[test]

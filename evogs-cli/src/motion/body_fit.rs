@@ -23,7 +23,13 @@
 //! `U ← exp(δ) U`: `∂L/∂δ = (U r) × ∂L/∂x + ½ vec(∂L/∂q ⊗ (U q)*)` per member (`r = p − c₀`),
 //! and `∂L/∂s = τ Jₗ(τ s)ᵀ ∂L/∂δ` ([`member_pose_vjp`]); the same for `Ω` with the sum of the
 //! members' position cotangents ([`circle_point_vjp`]).
+//!
+//! A spin search's body moves along its learnt centroid samples instead, or, refitted as a
+//! thrown body, along a flight with bounces ([`super::ballistic`]): its start, velocity,
+//! gravity's magnitude (the direction is held), floor depth and restitution are fitted the
+//! same way, through [`ballistic_point_vjp`].
 
+use super::ballistic::{Ballistic, ballistic_point_vjp};
 use super::bodies::{Body, CentrePath, Paths, circle_point_vjp};
 use super::orbit::{Group, Orbit};
 use super::spin::SearchContext;
@@ -50,6 +56,21 @@ const RATES: [f64; 5] = [1e-3, 5e-3, 2e-3, 0.05, 2.5e-3];
 /// Adam rates of the centroid path's points (an orbit's centre, a learnt path's samples;
 /// scene units), an orbit's angular velocity and the body's spin (radians per unit time).
 const PATH_RATES: [f64; 3] = [1e-3, 0.02, 0.05];
+/// Adam rates of a ballistic path's blocks `(start, end, rate)` in the layout of
+/// [`BodyParams::path_flat`]: start (scene units), velocity (per unit time), gravity's
+/// magnitude (per unit time squared; its direction is held), floor depth, restitution: each
+/// about a hundredth of the block's scale on `toys` (velocities of order 1, gravity of order
+/// 40), so that a refit can move the guess by its own size; the start is a learnt path's,
+/// the rate of [`PATH_RATES`]' points.
+const BALLISTIC_RATES: [(usize, usize, f64); 5] = [
+    (0, 3, 1e-3),
+    (3, 6, 0.02),
+    (6, 7, f64::NAN),
+    (7, 8, 0.01),
+    (8, 9, 0.01),
+];
+/// Adam rate of gravity's magnitude, relative to its magnitude at the refit's start.
+const GRAVITY_RATE: f64 = 0.02;
 /// The rates fall exponentially to this fraction of themselves over a refit.
 const FINAL_RATE: f64 = 0.1;
 /// Seed of the views' order.
@@ -137,12 +158,13 @@ impl BodyParams {
                 omega,
                 spin: self.spin,
             }),
-            CentrePath::Sampled(_) => None,
+            CentrePath::Sampled(_) | CentrePath::Ballistic(_) => None,
         }
     }
 
-    /// The path's parameters, flat (an orbit's centre and angular velocity, or a learnt
-    /// path's samples), and the blocks `(start, end, rate)` of their Adam rates.
+    /// The path's parameters, flat (an orbit's centre and angular velocity, a learnt path's
+    /// samples, or a flight's start, velocity, gravity's magnitude, floor depth and
+    /// restitution), and the blocks `(start, end, rate)` of their Adam rates.
     fn path_flat(&self) -> (Vec<f32>, Vec<(usize, usize, f64)>) {
         #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
         let flat = |v: &[Vec3<f64>]| -> Vec<f32> {
@@ -156,6 +178,19 @@ impl BodyParams {
                 vec![(0, 3, PATH_RATES[0]), (3, 6, PATH_RATES[1])],
             ),
             CentrePath::Sampled(c) => (flat(c), vec![(0, 3 * c.len(), PATH_RATES[0])]),
+            CentrePath::Ballistic(b) => {
+                let p = [
+                    &b.start.to_array()[..],
+                    &b.velocity.to_array(),
+                    &[b.accel.norm(), b.floor, b.restitution],
+                ]
+                .concat();
+                #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
+                let p = p.iter().map(|&x| x as f32).collect();
+                let mut rates = BALLISTIC_RATES.to_vec();
+                rates[2].2 = GRAVITY_RATE * b.accel.norm();
+                (p, rates)
+            }
         }
     }
 
@@ -168,6 +203,17 @@ impl BodyParams {
                 for (k, p) in c.iter_mut().enumerate() {
                     *p = at(k);
                 }
+            }
+            CentrePath::Ballistic(b) => {
+                let down = b.accel * b.accel.norm().max(f64::MIN_POSITIVE).recip();
+                *b = Ballistic {
+                    start: at(0),
+                    velocity: at(1),
+                    // Gravity keeps its direction (and a magnitude above zero, to keep it).
+                    accel: down * f64::from(flat[6]).max(1e-9),
+                    floor: f64::from(flat[7]),
+                    restitution: f64::from(flat[8]),
+                };
             }
         }
     }
@@ -194,14 +240,16 @@ impl BodyParams {
 }
 
 /// The views a refit sees, each with the model's own state at its time (which the body's
-/// members overwrite).
+/// members overwrite), and those of them a refit uses now (all, or those to a horizon).
 pub(super) struct Frames<'v> {
     views: Vec<&'v ViewData<f32>>,
     states: Vec<Splats<f32>>,
+    active: Vec<usize>,
 }
 
 impl<'v> Frames<'v> {
-    /// The views of `ctx` up to `horizon` (fraction of `range`, start and length).
+    /// The views of `ctx` up to `horizon` (fraction of `range`, start and length), all
+    /// active.
     pub(super) fn new(
         model: &mut Model<f32>,
         ctx: &SearchContext<'v>,
@@ -217,7 +265,19 @@ impl<'v> Frames<'v> {
                 st
             })
             .collect();
-        Self { views, states }
+        let active = (0..views.len()).collect();
+        Self {
+            views,
+            states,
+            active,
+        }
+    }
+
+    /// Makes the views up to time `t_end` the active ones.
+    pub(super) fn set_horizon(&mut self, t_end: f64) {
+        self.active = (0..self.views.len())
+            .filter(|&i| self.views[i].time <= t_end)
+            .collect();
     }
 
     /// Applies `f` to each view's time and state (to place other bodies in them).
@@ -227,9 +287,15 @@ impl<'v> Frames<'v> {
         }
     }
 
-    /// Number of views.
+    /// Number of active views.
     pub(super) fn len(&self) -> usize {
-        self.views.len()
+        self.active.len()
+    }
+
+    /// Active view `k` and its state.
+    fn get(&self, k: usize) -> (&'v ViewData<f32>, &Splats<f32>) {
+        let i = self.active[k];
+        (self.views[i], &self.states[i])
     }
 }
 
@@ -285,6 +351,15 @@ fn path_vjp(path: &CentrePath, sub: Subject<'_>, t: f64, g: Vec3<f64>, g_path: &
             let (k, f) = Paths::locate(t0, span, t);
             add(k, g * (1.0 - f));
             add(k + 1, g * f);
+        }
+        CentrePath::Ballistic(b) => {
+            let gb = ballistic_point_vjp(&b.to_flat(), t - t0, g);
+            let down = b.accel * b.accel.norm().max(f64::MIN_POSITIVE).recip();
+            add(0, Vec3::from_slice(&gb[..3]));
+            add(1, Vec3::from_slice(&gb[3..6]));
+            g_path[6] += Vec3::from_slice(&gb[6..9]).dot(down);
+            g_path[7] += gb[9];
+            g_path[8] += gb[10];
         }
     }
 }
@@ -365,7 +440,8 @@ fn mean_loss(
     ws: &mut Workspace,
 ) -> f64 {
     let mut total = 0.0;
-    for (v, st) in frames.views.iter().zip(&frames.states) {
+    for k in 0..frames.len() {
+        let (v, st) = frames.get(k);
         ws.render((st, v), body, params, opts);
         let rgb = &ws.fwd.raster.rgb;
         total +=
@@ -434,7 +510,7 @@ pub(super) fn refit_body(
                 order.swap(i, rng.below(i + 1));
             }
         }
-        let (v, st) = (frames.views[order[e]], &frames.states[order[e]]);
+        let (v, st) = frames.get(order[e]);
         ws.render((st, v), sub, &params, &opts);
         let (w, h) = (v.image.width(), v.image.height());
         if ws.d_image.width() != w || ws.d_image.height() != h {

@@ -77,7 +77,7 @@ fn circle_point_vjp_matches_central_differences() {
 }
 
 #[test]
-fn path_vjp_matches_central_differences_for_circles_and_samples() {
+fn path_vjp_matches_central_differences_for_every_kind_of_path() {
     let mut rng = SplitMix64::new(8);
     let mut v3 = |s: f64| Vec3::new(rng.normal(), rng.normal(), rng.normal()) * s;
     let (c0, g) = (v3(1.0), v3(1.0));
@@ -87,12 +87,21 @@ fn path_vjp_matches_central_differences_for_circles_and_samples() {
         omega: v3(4.0),
     };
     let sampled = CentrePath::Sampled((0..=GRID).map(|_| v3(1.0)).collect());
+    // Bounces at τ ≈ 0.31 and 0.69 (the times below are in the first, second and third
+    // flights).
+    let thrown = CentrePath::Ballistic(Ballistic {
+        start: Vec3::new(0.0, 0.0, 0.5),
+        velocity: Vec3::new(1.0, 0.0, 1.0),
+        accel: Vec3::new(0.2, -0.1, -30.0),
+        floor: 0.6,
+        restitution: 0.7,
+    });
     let sub = Subject {
         members: &[],
         c0,
         range,
     };
-    for path in [circle, sampled] {
+    for path in [circle, sampled, thrown] {
         let params = BodyParams {
             splats: Splats::new(0),
             spin: Vec3::zero(),

@@ -18,6 +18,7 @@
 //! [`orbit`] finds what the spin search cannot: a small body the learnt motion has already
 //! lost, circling a larger one (`[orbit_search]`).
 
+pub mod ballistic;
 pub mod bodies;
 mod body_fit;
 pub mod orbit;
@@ -67,6 +68,17 @@ pub struct SpinSearchConfig {
     /// fitted under a slow learnt motion is smeared, and its scan may not show the true
     /// spin until its shape is refitted.
     pub refit_speeds: Vec<f64>,
+    /// Accelerations (scene units per unit time squared) from which each searched body is
+    /// also refitted as a thrown body bouncing on a floor, its acceleration along the
+    /// cameras' mean down axis (empty: none; needs `refit_iters`). The best refit of all is
+    /// kept.
+    pub ballistic_gravities: Vec<f64>,
+    /// Horizons (increasing fractions of the time range) over whose views a thrown body's
+    /// refits run in turn, each from the last, so each flight is fitted before the next.
+    pub ballistic_horizons: Vec<f64>,
+    /// A body is refitted as thrown only if its learnt centroid leaves its start by more
+    /// than this (scene units): a body that stays put is not flying.
+    pub ballistic_min_travel: f64,
 }
 
 impl Default for SpinSearchConfig {
@@ -88,6 +100,9 @@ impl Default for SpinSearchConfig {
             fit_iters: 1000,
             refit_iters: 0,
             refit_speeds: Vec::new(),
+            ballistic_gravities: Vec::new(),
+            ballistic_horizons: vec![0.12, 0.25, 0.5, 1.0],
+            ballistic_min_travel: 0.2,
         }
     }
 }
@@ -118,6 +133,25 @@ impl SpinSearchConfig {
         chk(
             self.fine_step >= 0.0 && self.fine_step.is_finite(),
             "spin_search.fine_step must be a non-negative number",
+        )?;
+        chk(
+            self.ballistic_gravities
+                .iter()
+                .all(|g| g.is_finite() && *g >= 0.0),
+            "spin_search.ballistic_gravities must be non-negative numbers",
+        )?;
+        chk(
+            self.ballistic_min_travel >= 0.0,
+            "spin_search.ballistic_min_travel must be a non-negative number",
+        )?;
+        chk(
+            !self.ballistic_horizons.is_empty()
+                && self
+                    .ballistic_horizons
+                    .iter()
+                    .all(|h| *h > 0.0 && *h <= 1.0)
+                && self.ballistic_horizons.windows(2).all(|w| w[0] < w[1]),
+            "spin_search.ballistic_horizons must be a non-empty increasing list of fractions in (0, 1]",
         )
     }
 }
@@ -281,6 +315,11 @@ mod tests {
             "multipliers = []",
             "spin_fit_until = 0.0",
             "link = -1.0",
+            "ballistic_gravities = [-1.0]",
+            "ballistic_horizons = []",
+            "ballistic_horizons = [0.5, 0.25]",
+            "ballistic_horizons = [1.5]",
+            "ballistic_min_travel = -0.1",
         ] {
             let c = c
                 .merge_toml(&format!("[spin_search]\n{bad}\n"))

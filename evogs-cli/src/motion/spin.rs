@@ -192,11 +192,17 @@ pub fn search(
             let axis = bodies[b].omega * (1.0 / bodies[b].omega.norm());
             let mut spins = vec![bodies[b].omega * best];
             spins.extend(cfg.refit_speeds.iter().map(|&v| axis * v));
+            let thrown: &[f64] = if bodies[b].travel() > cfg.ballistic_min_travel {
+                &cfg.ballistic_gravities
+            } else {
+                &[]
+            };
             if let Some(fitted) = adopt_body_refit(
                 model,
                 ctx,
                 (bodies, &chosen, b),
                 &spins,
+                (thrown, &cfg.ballistic_horizons),
                 cfg.refit_iters,
                 stepper,
                 log,
@@ -430,16 +436,20 @@ mod tests {
             fine_step: 0.0,
             refit_iters: 150,
             refit_speeds: vec![0.5, 3.5],
+            // The body stays put, so it is not refitted as a thrown one.
+            ballistic_gravities: vec![10.0],
             ..cfg
         };
+        let mut lines = Vec::new();
         let (chosen, _) = search(
             &mut model,
             &mut ctx,
             &mut bodies,
             &coarse,
             &mut None,
-            &mut |_| {},
+            &mut |m| lines.push(m.to_string()),
         );
+        assert!(lines.iter().all(|l| !l.contains("thrown")), "{lines:?}");
         assert_eq!(chosen, vec![Some(1.0)], "the body carries the fitted spin");
         assert!(
             (bodies[0].omega - omega).norm() < 0.05,
