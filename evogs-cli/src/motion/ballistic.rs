@@ -112,6 +112,52 @@ impl Ballistic {
     }
 }
 
+/// The depth of the surface a thrown body lands on: the `quantile` (a fraction) of the depths
+/// along `down` (unit) of the opaque points (`opaque[i]`) not in `exclude` that lie deeper
+/// than every point of the body's `track` and within `reach` of it across `down` (so under
+/// it). `None` when there is no such point.
+#[must_use]
+pub fn support_depth(
+    points: &[Vec3<f64>],
+    opaque: impl Fn(usize) -> bool,
+    exclude: &[usize],
+    (track, down, reach): (&[Vec3<f64>], Vec3<f64>, f64),
+    quantile: f64,
+) -> Option<f64> {
+    let deepest = track
+        .iter()
+        .map(|c| c.dot(down))
+        .fold(f64::NEG_INFINITY, f64::max);
+    let across = |p: Vec3<f64>| p - down * p.dot(down);
+    let mut skip = vec![false; points.len()];
+    for &i in exclude {
+        skip[i] = true;
+    }
+    let mut depths: Vec<f64> = (0..points.len())
+        .filter(|&i| !skip[i] && opaque(i))
+        .filter(|&i| {
+            let p = points[i];
+            p.dot(down) > deepest
+                && track
+                    .iter()
+                    .any(|&c| across(p - c).norm_squared() <= reach * reach)
+        })
+        .map(|i| points[i].dot(down))
+        .collect();
+    if depths.is_empty() {
+        return None;
+    }
+    depths.sort_by(f64::total_cmp);
+    #[allow(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_precision_loss,
+        reason = "an index into the sorted depths"
+    )]
+    let k = ((depths.len() - 1) as f64 * quantile.clamp(0.0, 1.0)).round() as usize;
+    Some(depths[k])
+}
+
 /// Time of flight from depth `d` with normal velocity `u` (down positive) under `g` until
 /// the depth reaches `f`, or `None` if it never does. Both branches add positive terms, so
 /// neither cancels.
@@ -291,6 +337,37 @@ mod tests {
         // Its floor is the deepest sample: above the true one, so it bounces early.
         assert!((g.floor + samples[8].z).abs() < 1e-12 && g.floor < b.floor);
         assert_eq!((g.accel, g.restitution), (b.accel, 0.5));
+    }
+
+    #[test]
+    fn the_support_is_the_top_of_what_lies_under_the_track() {
+        let down = Vec3::new(0.0, 0.0, -1.0);
+        // A slab with its top at z = −1 (depth 1) under x ∈ [−2, 2], a floater at z = 0.5
+        // above the track, one far to the side, a transparent one and the body's own.
+        let mut points: Vec<Vec3<f64>> = (0..=40)
+            .flat_map(|i| {
+                (0..5).map(move |k| {
+                    Vec3::new(f64::from(i) * 0.1 - 2.0, 0.0, -1.0 - f64::from(k) * 0.1)
+                })
+            })
+            .collect();
+        let n = points.len();
+        points.extend([
+            Vec3::new(0.0, 0.0, 0.5),
+            Vec3::new(0.0, 3.0, -0.5),
+            Vec3::new(0.1, 0.0, -0.6),
+            Vec3::new(0.0, 0.0, -0.7),
+        ]);
+        let track = [Vec3::new(-0.5, 0.0, 0.0), Vec3::new(0.5, 0.0, -0.2)];
+        let top = support_depth(&points, |i| i != n + 2, &[n + 3], (&track, down, 0.3), 0.0);
+        assert_eq!(top, Some(1.0));
+        // The median of the slab's depths under the track (1.0 to 1.4).
+        let mid = support_depth(&points, |_| true, &[n + 2, n + 3], (&track, down, 0.3), 0.5);
+        assert!((mid.expect("some") - 1.2).abs() < 1e-12, "{mid:?}");
+        assert_eq!(
+            support_depth(&points, |_| false, &[], (&track, down, 0.3), 0.0),
+            None
+        );
     }
 
     #[test]

@@ -58,17 +58,30 @@ const RATES: [f64; 5] = [1e-3, 5e-3, 2e-3, 0.05, 2.5e-3];
 const PATH_RATES: [f64; 3] = [1e-3, 0.02, 0.05];
 /// Adam rates of a ballistic path's blocks `(start, end, rate)` in the layout of
 /// [`BodyParams::path_flat`]: start (scene units), velocity (per unit time), gravity's
-/// magnitude (per unit time squared; its direction is held), floor depth, restitution: each
-/// about a hundredth of the block's scale on `toys` (velocities of order 1, gravity of order
-/// 40), so that a refit can move the guess by its own size; the start is a learnt path's,
-/// the rate of [`PATH_RATES`]' points.
+/// magnitude (per unit time squared; its direction is held), floor depth, the restitution's
+/// logit: each about a hundredth of the block's scale on `toys` (velocities of order 1,
+/// gravity of order 40; a logit of order 5), so that a refit can move the guess by its own
+/// size; the start is a learnt path's, the rate of [`PATH_RATES`]' points.
 const BALLISTIC_RATES: [(usize, usize, f64); 5] = [
     (0, 3, 1e-3),
     (3, 6, 0.02),
     (6, 7, f64::NAN),
     (7, 8, 0.01),
-    (8, 9, 0.01),
+    (8, 9, 0.05),
 ];
+/// The logit the refit moves a restitution by (kept off 0 and 1, where it would be
+/// infinite): a logistic restitution stays in `(0, 1)`, where its gradient never vanishes as
+/// a clamped one's would.
+fn restitution_logit(e: f64) -> f64 {
+    let e = e.clamp(1e-4, 1.0 - 1e-4);
+    (e / (1.0 - e)).ln()
+}
+
+/// The logistic function, the inverse of [`restitution_logit`] on `(0, 1)`.
+fn sigmoid(x: f64) -> f64 {
+    1.0 / (1.0 + (-x).exp())
+}
+
 /// Adam rate of gravity's magnitude, relative to its magnitude at the refit's start.
 const GRAVITY_RATE: f64 = 0.02;
 /// The rates fall exponentially to this fraction of themselves over a refit.
@@ -163,8 +176,8 @@ impl BodyParams {
     }
 
     /// The path's parameters, flat (an orbit's centre and angular velocity, a learnt path's
-    /// samples, or a flight's start, velocity, gravity's magnitude, floor depth and
-    /// restitution), and the blocks `(start, end, rate)` of their Adam rates.
+    /// samples, or a flight's start, velocity, gravity's magnitude, floor depth and the
+    /// restitution's logit), and the blocks `(start, end, rate)` of their Adam rates.
     fn path_flat(&self) -> (Vec<f32>, Vec<(usize, usize, f64)>) {
         #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
         let flat = |v: &[Vec3<f64>]| -> Vec<f32> {
@@ -182,7 +195,7 @@ impl BodyParams {
                 let p = [
                     &b.start.to_array()[..],
                     &b.velocity.to_array(),
-                    &[b.accel.norm(), b.floor, b.restitution],
+                    &[b.accel.norm(), b.floor, restitution_logit(b.restitution)],
                 ]
                 .concat();
                 #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
@@ -212,7 +225,7 @@ impl BodyParams {
                     // Gravity keeps its direction (and a magnitude above zero, to keep it).
                     accel: down * f64::from(flat[6]).max(1e-9),
                     floor: f64::from(flat[7]),
-                    restitution: f64::from(flat[8]),
+                    restitution: sigmoid(f64::from(flat[8])),
                 };
             }
         }
@@ -359,7 +372,9 @@ fn path_vjp(path: &CentrePath, sub: Subject<'_>, t: f64, g: Vec3<f64>, g_path: &
             add(1, Vec3::from_slice(&gb[3..6]));
             g_path[6] += Vec3::from_slice(&gb[6..9]).dot(down);
             g_path[7] += gb[9];
-            g_path[8] += gb[10];
+            // Through the logistic map of the restitution's logit.
+            let e = b.restitution;
+            g_path[8] += gb[10] * e * (1.0 - e);
         }
     }
 }

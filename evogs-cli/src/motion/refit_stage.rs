@@ -1,7 +1,7 @@
 //! The searches' refit stages: several refits of one body from different spins, the best
 //! kept and written into the model (refits: [`super::body_fit`]).
 
-use super::ballistic::Ballistic;
+use super::ballistic::{Ballistic, support_depth};
 use super::bodies::{Body, CentrePath, Paths};
 use super::body_fit::{BodyParams, Frames, Subject, refit_body};
 use super::orbit::{Group, Orbit};
@@ -106,8 +106,14 @@ pub(super) fn camera_down(ctx: &SearchContext<'_>) -> Vec3<f64> {
     if n > 0.0 { sum * n.recip() } else { sum }
 }
 
+/// Quantile of the depths under a thrown body's track taken as the top of its support
+/// ([`support_depth`]): low, so the surface, not the slab, but above a stray deep point.
+const SUPPORT_QUANTILE: f64 = 0.05;
+
 /// The ballistic refits of `body` (learnt centroid samples on `body.path`): from a first
-/// guess at each of `gravities` along `down` ([`Ballistic::guess`] over the first horizon),
+/// guess at each of `gravities` along `down` ([`Ballistic::guess`] over the first horizon,
+/// its floor the body's radius above the top of what lies under its track, where that is
+/// deeper: [`support_depth`] of the opaque canonical Gaussians, `opacity_logits`),
 /// refitted with `iters` steps over the views to each of `horizons` in turn (fractions of
 /// the range), so that each flight's extrapolation meets the next views. Returns the fitted
 /// parameters and their losses over every view of `frames`.
@@ -116,7 +122,7 @@ fn ballistic_refits(
     ctx: &SearchContext<'_>,
     frames: &mut Frames<'_>,
     (body, sub): (&Body, Subject<'_>),
-    start: &BodyParams,
+    (start, opacity_logits): (&BodyParams, &[f32]),
     (down, gravities, horizons): (Vec3<f64>, &[f64], &[f64]),
     iters: usize,
 ) -> Vec<(BodyParams, f64)> {
@@ -128,11 +134,26 @@ fn ballistic_refits(
         .map(|k| Paths::grid_time(0.0, span, k))
         .collect();
     let first = horizons.first().copied().unwrap_or(1.0) * span;
+    // The floor: where the body rests on what lies under its learnt track (its radius above
+    // the top of the opaque Gaussians there), unless its learnt path goes deeper.
+    let support = support_depth(
+        &ctx.p0,
+        |i| opacity_logits[i] >= 0.0,
+        &body.members,
+        (samples, down, body.radius),
+        SUPPORT_QUANTILE,
+    );
     let mut cur: Vec<BodyParams> = gravities
         .iter()
-        .map(|&g| BodyParams {
-            path: CentrePath::Ballistic(Ballistic::guess(samples, &times, down * g, first)),
-            ..start.clone()
+        .map(|&g| {
+            let mut guess = Ballistic::guess(samples, &times, down * g, first);
+            if let Some(d) = support {
+                guess.floor = guess.floor.max(d - body.radius);
+            }
+            BodyParams {
+                path: CentrePath::Ballistic(guess),
+                ..start.clone()
+            }
         })
         .collect();
     for &h in horizons {
@@ -195,7 +216,7 @@ pub(super) fn adopt_body_refit(
             ctx,
             &mut frames,
             (body, sub),
-            &start,
+            (&start, &model.canonical.opacity_logits),
             (down, gravities, horizons),
             iters,
         );
