@@ -112,6 +112,96 @@ impl Ballistic {
     }
 }
 
+/// Number of a flight's numbers a refit moves ([`Ballistic::refit_params`]).
+pub const REFIT_PARAMS: usize = 9;
+
+/// Adam rates of a refit's velocity (per unit time), floor depth and restitution logit, and
+/// of gravity's magnitude relative to itself: each about a hundredth of the block's scale
+/// on `toys` (velocities of order 1, gravity of order 40, a logit of order 5), so that a
+/// refit can move a guess by its own size.
+const REFIT_RATES: [f64; 4] = [0.02, 0.01, 0.05, 0.02];
+
+/// The logit a refit moves a restitution by (kept off 0 and 1, where it would be infinite):
+/// a logistic restitution stays in `(0, 1)`, where its gradient never vanishes as a clamped
+/// one's would.
+fn restitution_logit(e: f64) -> f64 {
+    let e = e.clamp(1e-4, 1.0 - 1e-4);
+    (e / (1.0 - e)).ln()
+}
+
+/// The logistic function, the inverse of [`restitution_logit`] on `(0, 1)`.
+fn sigmoid(x: f64) -> f64 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+impl Ballistic {
+    /// Gravity's direction (unit; zero gravity gives a tiny-norm vector, not a NaN).
+    fn down(&self) -> Vec3<f64> {
+        self.accel * self.accel.norm().max(f64::MIN_POSITIVE).recip()
+    }
+
+    /// The numbers a refit moves: start, velocity, gravity's magnitude (its direction is
+    /// held: free, it trades against the horizontal velocity), floor depth and the
+    /// restitution's logit.
+    #[must_use]
+    pub fn refit_params(&self) -> [f64; REFIT_PARAMS] {
+        let (s, v) = (self.start.to_array(), self.velocity.to_array());
+        [
+            s[0],
+            s[1],
+            s[2],
+            v[0],
+            v[1],
+            v[2],
+            self.accel.norm(),
+            self.floor,
+            restitution_logit(self.restitution),
+        ]
+    }
+
+    /// Sets the flight from [`Self::refit_params`]' layout, gravity keeping its direction
+    /// (and a magnitude above zero, to keep it).
+    pub fn set_refit_params(&mut self, p: &[f64; REFIT_PARAMS]) {
+        let down = self.down();
+        *self = Self {
+            start: Vec3::from_slice(&p[..3]),
+            velocity: Vec3::from_slice(&p[3..6]),
+            accel: down * p[6].max(1e-9),
+            floor: p[7],
+            restitution: sigmoid(p[8]),
+        };
+    }
+
+    /// Adam rates of [`Self::refit_params`]' blocks `(start, end, rate)`, the start's
+    /// `start_rate` (scene units).
+    #[must_use]
+    pub fn refit_rates(&self, start_rate: f64) -> [(usize, usize, f64); 5] {
+        let [v, f, e, g] = REFIT_RATES;
+        [
+            (0, 3, start_rate),
+            (3, 6, v),
+            (6, 7, g * self.accel.norm()),
+            (7, 8, f),
+            (8, 9, e),
+        ]
+    }
+
+    /// The VJP of the centroid at elapsed `tau` with respect to [`Self::refit_params`],
+    /// given the position's cotangent `g`.
+    #[must_use]
+    pub fn refit_vjp(&self, tau: f64, g: Vec3<f64>) -> [f64; REFIT_PARAMS] {
+        let gb = ballistic_point_vjp(&self.to_flat(), tau, g);
+        let e = self.restitution;
+        let mut out = [0.0; REFIT_PARAMS];
+        out[..6].copy_from_slice(&gb[..6]);
+        out[6] = Vec3::from_slice(&gb[6..9]).dot(self.down());
+        out[7] = gb[9];
+        // Through the logistic map of the logit.
+        out[8] = gb[10] * e * (1.0 - e);
+        out
+    }
+}
+
 /// The depth of the surface a thrown body lands on: the `quantile` (a fraction) of the depths
 /// along `down` (unit) of the opaque points (`opaque[i]`) not in `exclude` that lie deeper
 /// than every point of the body's `track` and within `reach` of it across `down` (so under

@@ -27,9 +27,9 @@
 //! A spin search's body moves along its learnt centroid samples instead, or, refitted as a
 //! thrown body, along a flight with bounces ([`super::ballistic`]): its start, velocity,
 //! gravity's magnitude (the direction is held), floor depth and restitution are fitted the
-//! same way, through [`ballistic_point_vjp`].
+//! same way ([`super::ballistic::Ballistic::refit_params`]).
 
-use super::ballistic::{Ballistic, ballistic_point_vjp};
+use super::ballistic::REFIT_PARAMS;
 use super::bodies::{Body, CentrePath, Paths, circle_point_vjp};
 use super::orbit::{Group, Orbit};
 use super::spin::SearchContext;
@@ -56,34 +56,6 @@ const RATES: [f64; 5] = [1e-3, 5e-3, 2e-3, 0.05, 2.5e-3];
 /// Adam rates of the centroid path's points (an orbit's centre, a learnt path's samples;
 /// scene units), an orbit's angular velocity and the body's spin (radians per unit time).
 const PATH_RATES: [f64; 3] = [1e-3, 0.02, 0.05];
-/// Adam rates of a ballistic path's blocks `(start, end, rate)` in the layout of
-/// [`BodyParams::path_flat`]: start (scene units), velocity (per unit time), gravity's
-/// magnitude (per unit time squared; its direction is held), floor depth, the restitution's
-/// logit: each about a hundredth of the block's scale on `toys` (velocities of order 1,
-/// gravity of order 40; a logit of order 5), so that a refit can move the guess by its own
-/// size; the start is a learnt path's, the rate of [`PATH_RATES`]' points.
-const BALLISTIC_RATES: [(usize, usize, f64); 5] = [
-    (0, 3, 1e-3),
-    (3, 6, 0.02),
-    (6, 7, f64::NAN),
-    (7, 8, 0.01),
-    (8, 9, 0.05),
-];
-/// The logit the refit moves a restitution by (kept off 0 and 1, where it would be
-/// infinite): a logistic restitution stays in `(0, 1)`, where its gradient never vanishes as
-/// a clamped one's would.
-fn restitution_logit(e: f64) -> f64 {
-    let e = e.clamp(1e-4, 1.0 - 1e-4);
-    (e / (1.0 - e)).ln()
-}
-
-/// The logistic function, the inverse of [`restitution_logit`] on `(0, 1)`.
-fn sigmoid(x: f64) -> f64 {
-    1.0 / (1.0 + (-x).exp())
-}
-
-/// Adam rate of gravity's magnitude, relative to its magnitude at the refit's start.
-const GRAVITY_RATE: f64 = 0.02;
 /// The rates fall exponentially to this fraction of themselves over a refit.
 const FINAL_RATE: f64 = 0.1;
 /// Seed of the views' order.
@@ -176,8 +148,8 @@ impl BodyParams {
     }
 
     /// The path's parameters, flat (an orbit's centre and angular velocity, a learnt path's
-    /// samples, or a flight's start, velocity, gravity's magnitude, floor depth and the
-    /// restitution's logit), and the blocks `(start, end, rate)` of their Adam rates.
+    /// samples, or a flight's [`super::ballistic::Ballistic::refit_params`]), and the blocks
+    /// `(start, end, rate)` of their Adam rates.
     fn path_flat(&self) -> (Vec<f32>, Vec<(usize, usize, f64)>) {
         #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
         let flat = |v: &[Vec3<f64>]| -> Vec<f32> {
@@ -192,17 +164,9 @@ impl BodyParams {
             ),
             CentrePath::Sampled(c) => (flat(c), vec![(0, 3 * c.len(), PATH_RATES[0])]),
             CentrePath::Ballistic(b) => {
-                let p = [
-                    &b.start.to_array()[..],
-                    &b.velocity.to_array(),
-                    &[b.accel.norm(), b.floor, restitution_logit(b.restitution)],
-                ]
-                .concat();
                 #[allow(clippy::cast_possible_truncation, reason = "Adam runs in f32")]
-                let p = p.iter().map(|&x| x as f32).collect();
-                let mut rates = BALLISTIC_RATES.to_vec();
-                rates[2].2 = GRAVITY_RATE * b.accel.norm();
-                (p, rates)
+                let p = b.refit_params().map(|x| x as f32).to_vec();
+                (p, b.refit_rates(PATH_RATES[0]).to_vec())
             }
         }
     }
@@ -218,15 +182,11 @@ impl BodyParams {
                 }
             }
             CentrePath::Ballistic(b) => {
-                let down = b.accel * b.accel.norm().max(f64::MIN_POSITIVE).recip();
-                *b = Ballistic {
-                    start: at(0),
-                    velocity: at(1),
-                    // Gravity keeps its direction (and a magnitude above zero, to keep it).
-                    accel: down * f64::from(flat[6]).max(1e-9),
-                    floor: f64::from(flat[7]),
-                    restitution: sigmoid(f64::from(flat[8])),
-                };
+                let mut p = [0.0; REFIT_PARAMS];
+                for (d, &x) in p.iter_mut().zip(flat) {
+                    *d = f64::from(x);
+                }
+                b.set_refit_params(&p);
             }
         }
     }
@@ -366,15 +326,9 @@ fn path_vjp(path: &CentrePath, sub: Subject<'_>, t: f64, g: Vec3<f64>, g_path: &
             add(k + 1, g * f);
         }
         CentrePath::Ballistic(b) => {
-            let gb = ballistic_point_vjp(&b.to_flat(), t - t0, g);
-            let down = b.accel * b.accel.norm().max(f64::MIN_POSITIVE).recip();
-            add(0, Vec3::from_slice(&gb[..3]));
-            add(1, Vec3::from_slice(&gb[3..6]));
-            g_path[6] += Vec3::from_slice(&gb[6..9]).dot(down);
-            g_path[7] += gb[9];
-            // Through the logistic map of the restitution's logit.
-            let e = b.restitution;
-            g_path[8] += gb[10] * e * (1.0 - e);
+            for (d, x) in g_path.iter_mut().zip(b.refit_vjp(t - t0, g)) {
+                *d += x;
+            }
         }
     }
 }

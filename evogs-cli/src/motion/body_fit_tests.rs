@@ -3,10 +3,13 @@
 
 use super::*;
 use crate::motion::OrbitSearchConfig;
+use crate::motion::ballistic::Ballistic;
 use crate::motion::bodies::{GRID, circle_point, circle_point_vjp};
-use crate::motion::orbit::{canonical_groups, search};
+use crate::motion::orbit::canonical_groups;
 use crate::motion::refit_stage::refit_spins;
-use crate::motion::test_support::{orbit_test_cfg, static_model, test_context, tumbling_rod};
+use crate::motion::test_support::{
+    orbit_search_logged, orbit_test_cfg, static_model, test_context, tumbling_rod,
+};
 use crate::train::step::render_options;
 
 #[test]
@@ -203,15 +206,7 @@ fn with_refits_the_search_finds_the_tumble_of_a_squashed_body() {
             group.members.len(),
             "the rod is one group"
         );
-        let found = search(
-            &mut model,
-            &mut ctx,
-            &groups,
-            (0.0, 1.0),
-            cfg,
-            &mut None,
-            &mut |m| lines.push(m.to_string()),
-        );
+        let found = orbit_search_logged(&mut model, &mut ctx, &groups, cfg, &mut lines);
         (found, lines)
     };
     let plain = run(&orbit_test_cfg());

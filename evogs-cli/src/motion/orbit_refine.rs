@@ -118,8 +118,9 @@ pub(super) fn polish(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::orbit::search;
-    use crate::motion::test_support::{orbit_test_cfg, static_model, test_context, tumbling_rod};
+    use crate::motion::test_support::{
+        orbit_search_logged, orbit_test_cfg, static_model, test_context, tumbling_rod,
+    };
     use crate::train::step::render_options;
     use evogs_math::Par;
 
@@ -133,15 +134,7 @@ mod tests {
         let mut ctx = test_context(&views, &splats, opts);
         let mut lines = Vec::new();
         let mut run = |cfg: &crate::motion::OrbitSearchConfig| {
-            search(
-                &mut model,
-                &mut ctx,
-                &groups,
-                (0.0, 1.0),
-                cfg,
-                &mut None,
-                &mut |m| lines.push(m.to_string()),
-            )
+            orbit_search_logged(&mut model, &mut ctx, &groups, cfg, &mut lines)
         };
         let found = run(&cfg);
         let locked = run(&crate::motion::OrbitSearchConfig {

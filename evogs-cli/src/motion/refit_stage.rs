@@ -143,33 +143,35 @@ fn ballistic_refits(
         (samples, down, body.radius),
         SUPPORT_QUANTILE,
     );
-    let mut cur: Vec<BodyParams> = gravities
+    let mut fits: Vec<(BodyParams, f64)> = gravities
         .iter()
         .map(|&g| {
             let mut guess = Ballistic::guess(samples, &times, down * g, first);
             if let Some(d) = support {
                 guess.floor = guess.floor.max(d - body.radius);
             }
-            BodyParams {
+            let p = BodyParams {
                 path: CentrePath::Ballistic(guess),
                 ..start.clone()
-            }
+            };
+            (p, f64::NAN)
         })
         .collect();
     for &h in horizons {
         frames.set_horizon(h.mul_add(span, t0));
-        cur = refit_all(ctx, frames, sub, &cur, iters)
-            .into_iter()
-            .map(|f| f.0)
-            .collect();
+        let starts: Vec<BodyParams> = fits.into_iter().map(|f| f.0).collect();
+        fits = refit_all(ctx, frames, sub, &starts, iters);
     }
+    // A refit's loss is over its views: the last horizon's are every view unless it ends
+    // before the range does (the guesses have none).
+    let last = frames.len();
     frames.set_horizon(f64::INFINITY);
-    cur.into_iter()
-        .map(|p| {
-            let (_, loss) = refit_body(ctx, frames, sub, &p, 0, ctx.par);
-            (p, loss)
-        })
-        .collect()
+    if frames.len() != last || horizons.is_empty() {
+        for f in &mut fits {
+            f.1 = refit_body(ctx, frames, sub, &f.0, 0, ctx.par).1;
+        }
+    }
+    fits
 }
 
 /// The spin search's refits of `bodies[b]` from each of `spins` along its learnt centroid
@@ -223,12 +225,9 @@ pub(super) fn adopt_body_refit(
         for (g, f) in gravities.iter().zip(&thrown) {
             if let CentrePath::Ballistic(p) = &f.0.path {
                 each.push(format!(
-                    "thrown from |a| {g:.1}: |a| {:.2} at {:.1}° from the cameras' down, floor {:.3}, e {:.2}, spin {:.2} ({:.4e})",
+                    "thrown along {:.3?} from |a| {g:.1}: |a| {:.2}, floor {:.3}, e {:.2}, spin {:.2} ({:.4e})",
+                    down.to_array(),
                     p.accel.norm(),
-                    (p.accel.dot(down) / p.accel.norm().max(f64::MIN_POSITIVE))
-                        .clamp(-1.0, 1.0)
-                        .acos()
-                        .to_degrees(),
                     p.floor,
                     p.restitution,
                     f.0.spin.norm(),

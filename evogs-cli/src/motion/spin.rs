@@ -392,17 +392,14 @@ mod tests {
             max_radius: 2.0,
             ..SpinSearchConfig::default()
         };
-        let mut lines = Vec::new();
-        let (chosen, scans) = search(
-            &mut model,
-            &mut ctx,
-            &mut bodies,
-            &cfg,
-            &mut None,
-            &mut |m| {
+        let mut run = |bodies: &mut [Body], cfg: &SpinSearchConfig| {
+            let mut lines = Vec::new();
+            let (chosen, scans) = search(&mut model, &mut ctx, bodies, cfg, &mut None, &mut |m| {
                 lines.push(m.to_string());
-            },
-        );
+            });
+            (chosen, scans, lines)
+        };
+        let (chosen, scans, lines) = run(&mut bodies, &cfg);
         assert_eq!(chosen, vec![Some(2.0)]);
         let scan = scans[0].as_ref().expect("searched");
         let at = |s: f64| {
@@ -420,14 +417,7 @@ mod tests {
             max_radius: bodies[0].radius * 0.5,
             ..cfg.clone()
         };
-        let (none, _) = search(
-            &mut model,
-            &mut ctx,
-            &mut bodies,
-            &small,
-            &mut None,
-            &mut |_| {},
-        );
+        let (none, _, _) = run(&mut bodies, &small);
         assert_eq!(none, vec![None]);
         // A coarse scan misses the spin (×1.5 of the learnt one, three quarters of the
         // truth); refits of the body from there and from two more rates find it.
@@ -440,15 +430,7 @@ mod tests {
             ballistic_gravities: vec![10.0],
             ..cfg
         };
-        let mut lines = Vec::new();
-        let (chosen, _) = search(
-            &mut model,
-            &mut ctx,
-            &mut bodies,
-            &coarse,
-            &mut None,
-            &mut |m| lines.push(m.to_string()),
-        );
+        let (chosen, _, lines) = run(&mut bodies, &coarse);
         assert!(lines.iter().all(|l| !l.contains("thrown")), "{lines:?}");
         assert_eq!(chosen, vec![Some(1.0)], "the body carries the fitted spin");
         assert!(

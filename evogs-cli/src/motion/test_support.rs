@@ -2,7 +2,7 @@
 //! of a scene with some of its Gaussians turned rigidly.
 
 use super::OrbitSearchConfig;
-use super::orbit::{Group, Orbit, canonical_groups};
+use super::orbit::{Found, Group, Orbit, canonical_groups, search};
 use super::spin::SearchContext;
 use super::spin::place;
 use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
@@ -174,6 +174,19 @@ pub(crate) fn orbit_test_cfg() -> OrbitSearchConfig {
         min_gain: 0.0,
         ..OrbitSearchConfig::default()
     }
+}
+
+/// The orbit search on `groups` over the time range [0, 1], its log pushed into `lines`.
+pub(crate) fn orbit_search_logged(
+    model: &mut Model<f32>,
+    ctx: &mut SearchContext<'_>,
+    groups: &[Group],
+    cfg: &OrbitSearchConfig,
+    lines: &mut Vec<String>,
+) -> Vec<Found> {
+    search(model, ctx, groups, (0.0, 1.0), cfg, &mut None, &mut |m| {
+        lines.push(m.to_string());
+    })
 }
 
 /// [`two_groups`] with the small group stretched into a rod along x (so that its own turn
