@@ -117,7 +117,6 @@ const SUPPORT_QUANTILE: f64 = 0.05;
 /// refitted with `iters` steps over the views to each of `horizons` in turn (fractions of
 /// the range), so that each flight's extrapolation meets the next views. Returns the fitted
 /// parameters and their losses over every view of `frames`.
-#[allow(clippy::too_many_arguments, reason = "the stage's whole state")]
 fn ballistic_refits(
     ctx: &SearchContext<'_>,
     frames: &mut Frames<'_>,
