@@ -64,6 +64,7 @@ pub mod raster_tiled_vjp;
 pub mod render;
 pub mod ssim;
 pub mod tile_lanes;
+pub mod window;
 
 pub use binning::{Binning, Rect, TILE_SIZE, TileGrid};
 pub use camera::{CameraError, CameraGrad, PinholeCamera};
@@ -84,3 +85,4 @@ pub use render::{
     Render, RenderGrad, render, render_tiled, render_tiled_into, render_tiled_vjp,
     render_tiled_vjp_into, render_vjp,
 };
+pub use window::{Window, render_window_into};

@@ -33,6 +33,7 @@ use super::ballistic::REFIT_PARAMS;
 use super::bodies::{Body, CentrePath, Paths, circle_point_vjp};
 use super::orbit::{Group, Orbit};
 use super::spin::SearchContext;
+use super::window_loss::WindowLoss;
 use crate::model::Model;
 use crate::train::adam::{Adam, AdamState};
 use crate::train::step::ViewData;
@@ -41,12 +42,11 @@ use evogs_math::so3::exp_quat;
 use evogs_math::so3_jacobians::left_jacobian;
 use evogs_math::{Par, Quat, Real, Vec3};
 use evogs_ode::Stepper;
-use evogs_splat::loss::{photometric_loss, photometric_loss_and_grad};
+use evogs_splat::loss::photometric_loss;
 use evogs_splat::ssim::SsimWorkspace;
 use evogs_splat::{
-    CameraGrad, DensifyStats, Image, PixelGrad, Preprocessed, RasterInputGrad, RasterOutput,
-    Render, RenderGrad, RenderOptions, Splats, TiledRasterizer, render_tiled_into,
-    render_tiled_vjp_into,
+    CameraGrad, DensifyStats, Preprocessed, RasterInputGrad, RasterOutput, Render, RenderGrad,
+    RenderOptions, Splats, TiledRasterizer, render_tiled_into,
 };
 
 /// Adam rates of a refit (per step, before the decay), in the blocks of
@@ -361,7 +361,7 @@ struct Workspace {
     probe: Splats<f32>,
     fwd: Render<f32>,
     grad: RenderGrad<f32>,
-    d_image: Image<f32>,
+    window: WindowLoss,
 }
 
 impl Workspace {
@@ -381,7 +381,7 @@ impl Workspace {
                 background: [0.0; 3],
                 densify: DensifyStats::default(),
             },
-            d_image: Image::new(0, 0),
+            window: WindowLoss::new(background),
         }
     }
 
@@ -480,34 +480,20 @@ pub(super) fn refit_body(
             }
         }
         let (v, st) = frames.get(order[e]);
-        ws.render((st, v), sub, &params, &opts);
-        let (w, h) = (v.image.width(), v.image.height());
-        if ws.d_image.width() != w || ws.d_image.height() != h {
-            ws.d_image = Image::new(w, h);
+        ws.probe.clone_from(st);
+        place_params(&mut ws.probe, sub, &params, v.time);
+        // The members' exact gradient from a window around them (`window_loss`); none if
+        // no member is in sight.
+        let seen = ws
+            .window
+            .grad_into(v, &ws.probe, members, &opts, ctx.lambda, &mut ws.grad);
+        if !seen {
+            if ws.grad.splats.len() == ws.probe.len() {
+                ws.grad.splats.fill_zero();
+            } else {
+                ws.grad.splats = ws.probe.zeros_like();
+            }
         }
-        ws.d_image.data_mut().fill(0.0);
-        photometric_loss_and_grad(
-            &mut ws.ssim,
-            &ws.fwd.raster.rgb,
-            &v.image,
-            ctx.lambda,
-            1.0,
-            &mut ws.d_image,
-            opts.par,
-        );
-        render_tiled_vjp_into(
-            &ws.probe,
-            &v.camera,
-            &opts,
-            &mut ws.rast,
-            &ws.fwd,
-            &PixelGrad {
-                rgb: ws.d_image.data(),
-                alpha: None,
-                depth: None,
-            },
-            &mut ws.grad,
-        );
         let g = &ws.grad.splats;
         // Back to the canonical members, the spin and the path.
         let tau = v.time - t0;

@@ -28,6 +28,7 @@ mod refit_stage;
 pub mod spin;
 #[cfg(test)]
 pub(crate) mod test_support;
+mod window_loss;
 
 use serde::{Deserialize, Serialize};
 

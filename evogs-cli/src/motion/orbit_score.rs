@@ -4,6 +4,7 @@
 use super::bodies::Body;
 use super::orbit::{Group, Orbit};
 use super::spin::{SearchContext, place};
+use super::window_loss::WindowLoss;
 use crate::train::step::ViewData;
 use evogs_math::Par;
 use evogs_ode::Stepper;
@@ -12,11 +13,22 @@ use evogs_splat::ssim::SsimWorkspace;
 use evogs_splat::{RenderOptions, Splats, TiledRasterizer, render_tiled};
 
 /// Per-worker buffers of [`score`].
-#[derive(Default)]
 struct Workspace {
     rast: TiledRasterizer<f32>,
     ssim: SsimWorkspace<f32>,
     probe: Splats<f32>,
+    window: WindowLoss,
+}
+
+impl Workspace {
+    fn new(background: [f32; 3]) -> Self {
+        Self {
+            rast: TiledRasterizer::new(),
+            ssim: SsimWorkspace::default(),
+            probe: Splats::default(),
+            window: WindowLoss::new(background),
+        }
+    }
 }
 
 /// Photometric loss of `view` rendered from `st` with each of `bodies` placed in turn (with
@@ -32,19 +44,26 @@ fn losses(
         par: Par::Seq,
         ..ctx.opts
     };
-    let Workspace { rast, ssim, probe } = ws;
-    let mut loss = |s: &Splats<f32>| {
-        let r = render_tiled(s, &view.camera, &opts, rast);
-        f64::from(photometric_loss(ssim, &r.raster.rgb, &view.image, ctx.lambda, Par::Seq).total)
+    let Workspace {
+        rast,
+        ssim,
+        probe,
+        window,
+    } = ws;
+    let Some(first) = bodies.first() else {
+        let r = render_tiled(st, &view.camera, &opts, rast);
+        let l = photometric_loss(ssim, &r.raster.rgb, &view.image, ctx.lambda, Par::Seq);
+        return vec![f64::from(l.total)];
     };
-    if bodies.is_empty() {
-        return vec![loss(st)];
-    }
-    // Every body overwrites all of its (the same) members, so one copy serves them all.
+    // Every body moves the same members: one base (the view without them) and one copy
+    // serve them all, each placement scored through a window around it (`window_loss`).
+    let members = &first.members;
+    window.set_base(view, st, members, &opts, ctx.lambda);
     probe.clone_from(st);
     bodies
         .iter()
         .map(|body| {
+            debug_assert!(body.members == *members, "one group's orbits");
             place(
                 probe,
                 body,
@@ -54,7 +73,7 @@ fn losses(
                 &ctx.q0,
                 &ctx.log_scales,
             );
-            loss(probe)
+            window.loss(view, probe, members, &opts, ctx.lambda)
         })
         .collect()
 }
@@ -78,7 +97,9 @@ pub(super) fn score(
         #[cfg(feature = "rayon")]
         Par::Rayon => rayon::current_num_threads().max(1),
     };
-    let mut ws: Vec<Workspace> = (0..workers).map(|_| Workspace::default()).collect();
+    let mut ws: Vec<Workspace> = (0..workers)
+        .map(|_| Workspace::new(ctx.opts.background))
+        .collect();
     let chunk = bodies.len().div_ceil(workers);
     let mut total = vec![0.0; bodies.len() + 1];
     let mut count = 0usize;

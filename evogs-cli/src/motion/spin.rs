@@ -3,6 +3,7 @@
 use super::SpinSearchConfig;
 use super::bodies::{Body, Paths};
 use super::refit_stage::adopt_body_refit;
+use super::window_loss::WindowLoss;
 use crate::model::Model;
 use crate::train::adam::{Adam, AdamState};
 use crate::train::step::ViewData;
@@ -90,6 +91,7 @@ fn scan(
     stepper: &mut Option<Stepper<f32>>,
 ) -> Vec<f64> {
     let (mut rast, mut ssim) = (TiledRasterizer::new(), SsimWorkspace::default());
+    let mut window = WindowLoss::new(ctx.opts.background);
     let (mut st, mut probe) = (Splats::default(), Splats::default());
     let mut total = vec![0.0; mults.len() + 1];
     let log_scales = &ctx.log_scales;
@@ -107,13 +109,16 @@ fn scan(
             )
         };
         total[mults.len()] += loss(&st);
-        // Every multiplier overwrites the same members, so one copy per view serves them all.
+        // Every multiplier overwrites the same members, so one base (the view without them)
+        // and one copy per view serve them all, each scored through a window around the body.
+        let members = &bodies[b].members;
+        window.set_base(v, &st, members, &ctx.opts, ctx.lambda);
         probe.clone_from(&st);
         for (j, &s) in mults.iter().enumerate() {
             place(
                 &mut probe, &bodies[b], v.time, s, &ctx.p0, &ctx.q0, log_scales,
             );
-            total[j] += loss(&probe);
+            total[j] += window.loss(v, &probe, members, &ctx.opts, ctx.lambda);
         }
     }
     total
