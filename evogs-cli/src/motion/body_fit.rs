@@ -42,12 +42,7 @@ use evogs_math::so3::exp_quat;
 use evogs_math::so3_jacobians::left_jacobian;
 use evogs_math::{Par, Quat, Real, Vec3};
 use evogs_ode::Stepper;
-use evogs_splat::loss::photometric_loss;
-use evogs_splat::ssim::SsimWorkspace;
-use evogs_splat::{
-    CameraGrad, DensifyStats, Preprocessed, RasterInputGrad, RasterOutput, Render, RenderGrad,
-    RenderOptions, Splats, TiledRasterizer, render_tiled_into,
-};
+use evogs_splat::{CameraGrad, DensifyStats, RasterInputGrad, RenderGrad, RenderOptions, Splats};
 
 /// Adam rates of a refit (per step, before the decay), in the blocks of
 /// [`Splats::write_flat`]: positions (scene units), log-scales, raw quaternions, opacity
@@ -356,24 +351,15 @@ fn place_params(st: &mut Splats<f32>, sub: Subject<'_>, params: &BodyParams, t: 
 
 /// Buffers of one refit, kept across its steps (the rasterizer sizes them to each view).
 struct Workspace {
-    rast: TiledRasterizer<f32>,
-    ssim: SsimWorkspace<f32>,
     probe: Splats<f32>,
-    fwd: Render<f32>,
     grad: RenderGrad<f32>,
     window: WindowLoss,
 }
 
 impl Workspace {
-    fn new(background: [f32; 3]) -> Self {
+    fn new(opts: RenderOptions<f32>, lambda: f32) -> Self {
         Self {
-            rast: TiledRasterizer::new(),
-            ssim: SsimWorkspace::default(),
             probe: Splats::default(),
-            fwd: Render {
-                pre: Preprocessed::default(),
-                raster: RasterOutput::new(0, 0, background),
-            },
             grad: RenderGrad {
                 splats: Splats::default(),
                 camera: CameraGrad::zero(),
@@ -381,40 +367,34 @@ impl Workspace {
                 background: [0.0; 3],
                 densify: DensifyStats::default(),
             },
-            window: WindowLoss::new(background),
+            window: WindowLoss::new(opts, lambda),
         }
     }
 
-    /// Renders `st` with the body posed from `params` at view `v`'s time into `self.fwd`.
-    fn render(
+    /// The loss of view `v`, rendered whole from `st` with the body posed from `params`.
+    fn full_loss(
         &mut self,
         (st, v): (&Splats<f32>, &ViewData<f32>),
         sub: Subject<'_>,
         params: &BodyParams,
-        opts: &RenderOptions<f32>,
-    ) {
+    ) -> f64 {
         self.probe.clone_from(st);
         place_params(&mut self.probe, sub, params, v.time);
-        render_tiled_into(&self.probe, &v.camera, opts, &mut self.rast, &mut self.fwd);
+        self.window.full_loss(v, &self.probe)
     }
 }
 
 /// Mean photometric loss per view of `frames` with the body posed from `params`.
 fn mean_loss(
-    ctx: &SearchContext<'_>,
     frames: &Frames<'_>,
     body: Subject<'_>,
     params: &BodyParams,
-    opts: &RenderOptions<f32>,
     ws: &mut Workspace,
 ) -> f64 {
     let mut total = 0.0;
     for k in 0..frames.len() {
         let (v, st) = frames.get(k);
-        ws.render((st, v), body, params, opts);
-        let rgb = &ws.fwd.raster.rgb;
-        total +=
-            f64::from(photometric_loss(&mut ws.ssim, rgb, &v.image, ctx.lambda, opts.par).total);
+        total += ws.full_loss((st, v), body, params);
     }
     #[allow(clippy::cast_precision_loss, reason = "a count")]
     let n = frames.len().max(1) as f64;
@@ -445,7 +425,7 @@ pub(super) fn refit_body(
 ) -> (BodyParams, f64) {
     let opts = RenderOptions { par, ..ctx.opts };
     let (members, c0, t0) = (sub.members, sub.c0, sub.range.0);
-    let mut ws = Workspace::new(opts.background);
+    let mut ws = Workspace::new(opts, ctx.lambda);
     let mut params = start.clone();
     let n = params.splats.len();
     let mut flat = Vec::new();
@@ -484,9 +464,7 @@ pub(super) fn refit_body(
         place_params(&mut ws.probe, sub, &params, v.time);
         // The members' exact gradient from a window around them (`window_loss`); none if
         // no member is in sight.
-        let seen = ws
-            .window
-            .grad_into(v, &ws.probe, members, &opts, ctx.lambda, &mut ws.grad);
+        let seen = ws.window.grad_into(v, &ws.probe, members, &mut ws.grad);
         if !seen {
             if ws.grad.splats.len() == ws.probe.len() {
                 ws.grad.splats.fill_zero();
@@ -542,7 +520,7 @@ pub(super) fn refit_body(
             g_spin,
         );
     }
-    let loss = mean_loss(ctx, frames, sub, &params, &opts, &mut ws);
+    let loss = mean_loss(frames, sub, &params, &mut ws);
     (params, loss)
 }
 

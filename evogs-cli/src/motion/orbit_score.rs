@@ -8,27 +8,12 @@ use super::window_loss::WindowLoss;
 use crate::train::step::ViewData;
 use evogs_math::Par;
 use evogs_ode::Stepper;
-use evogs_splat::loss::photometric_loss;
-use evogs_splat::ssim::SsimWorkspace;
-use evogs_splat::{RenderOptions, Splats, TiledRasterizer, render_tiled};
+use evogs_splat::{RenderOptions, Splats};
 
 /// Per-worker buffers of [`score`].
 struct Workspace {
-    rast: TiledRasterizer<f32>,
-    ssim: SsimWorkspace<f32>,
     probe: Splats<f32>,
     window: WindowLoss,
-}
-
-impl Workspace {
-    fn new(background: [f32; 3]) -> Self {
-        Self {
-            rast: TiledRasterizer::new(),
-            ssim: SsimWorkspace::default(),
-            probe: Splats::default(),
-            window: WindowLoss::new(background),
-        }
-    }
 }
 
 /// Photometric loss of `view` rendered from `st` with each of `bodies` placed in turn (with
@@ -40,25 +25,14 @@ fn losses(
     bodies: &[Body],
     ws: &mut Workspace,
 ) -> Vec<f64> {
-    let opts = RenderOptions {
-        par: Par::Seq,
-        ..ctx.opts
-    };
-    let Workspace {
-        rast,
-        ssim,
-        probe,
-        window,
-    } = ws;
+    let Workspace { probe, window } = ws;
     let Some(first) = bodies.first() else {
-        let r = render_tiled(st, &view.camera, &opts, rast);
-        let l = photometric_loss(ssim, &r.raster.rgb, &view.image, ctx.lambda, Par::Seq);
-        return vec![f64::from(l.total)];
+        return vec![window.full_loss(view, st)];
     };
     // Every body moves the same members: one base (the view without them) and one copy
     // serve them all, each placement scored through a window around it (`window_loss`).
     let members = &first.members;
-    window.set_base(view, st, members, &opts, ctx.lambda);
+    window.set_base(view, st, members);
     probe.clone_from(st);
     bodies
         .iter()
@@ -73,7 +47,7 @@ fn losses(
                 &ctx.q0,
                 &ctx.log_scales,
             );
-            window.loss(view, probe, members, &opts, ctx.lambda)
+            window.loss(view, probe, members)
         })
         .collect()
 }
@@ -97,8 +71,16 @@ pub(super) fn score(
         #[cfg(feature = "rayon")]
         Par::Rayon => rayon::current_num_threads().max(1),
     };
+    // Each worker renders one placement at a time.
+    let opts = RenderOptions {
+        par: Par::Seq,
+        ..ctx.opts
+    };
     let mut ws: Vec<Workspace> = (0..workers)
-        .map(|_| Workspace::new(ctx.opts.background))
+        .map(|_| Workspace {
+            probe: Splats::default(),
+            window: WindowLoss::new(opts, ctx.lambda),
+        })
         .collect();
     let chunk = bodies.len().div_ceil(workers);
     let mut total = vec![0.0; bodies.len() + 1];

@@ -10,9 +10,7 @@ use crate::train::step::ViewData;
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Par, Quat, Vec3};
 use evogs_ode::Stepper;
-use evogs_splat::loss::photometric_loss;
-use evogs_splat::ssim::SsimWorkspace;
-use evogs_splat::{RenderOptions, Splats, TiledRasterizer, render_tiled};
+use evogs_splat::{RenderOptions, Splats};
 
 /// Seed of the regression's random times.
 const FIT_SEED: u64 = 11;
@@ -90,8 +88,7 @@ fn scan(
     mults: &[f64],
     stepper: &mut Option<Stepper<f32>>,
 ) -> Vec<f64> {
-    let (mut rast, mut ssim) = (TiledRasterizer::new(), SsimWorkspace::default());
-    let mut window = WindowLoss::new(ctx.opts.background);
+    let mut window = WindowLoss::new(ctx.opts, ctx.lambda);
     let (mut st, mut probe) = (Splats::default(), Splats::default());
     let mut total = vec![0.0; mults.len() + 1];
     let log_scales = &ctx.log_scales;
@@ -102,23 +99,17 @@ fn scan(
                 place(&mut st, body, v.time, s, &ctx.p0, &ctx.q0, log_scales);
             }
         }
-        let mut loss = |s: &Splats<f32>| {
-            let r = render_tiled(s, &v.camera, &ctx.opts, &mut rast);
-            f64::from(
-                photometric_loss(&mut ssim, &r.raster.rgb, &v.image, ctx.lambda, ctx.par).total,
-            )
-        };
-        total[mults.len()] += loss(&st);
+        total[mults.len()] += window.full_loss(v, &st);
         // Every multiplier overwrites the same members, so one base (the view without them)
         // and one copy per view serve them all, each scored through a window around the body.
         let members = &bodies[b].members;
-        window.set_base(v, &st, members, &ctx.opts, ctx.lambda);
+        window.set_base(v, &st, members);
         probe.clone_from(&st);
         for (j, &s) in mults.iter().enumerate() {
             place(
                 &mut probe, &bodies[b], v.time, s, &ctx.p0, &ctx.q0, log_scales,
             );
-            total[j] += window.loss(v, &probe, members, &ctx.opts, ctx.lambda);
+            total[j] += window.loss(v, &probe, members);
         }
     }
     total
@@ -348,6 +339,7 @@ mod tests {
     };
     use crate::train::step::render_options;
     use evogs_ode::Method;
+    use evogs_splat::TiledRasterizer;
     use evogs_splat::random_scene;
 
     /// The first `count` of `splats` as one body spinning at `omega` about its centroid.

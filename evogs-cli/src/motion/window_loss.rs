@@ -28,12 +28,12 @@
 
 use crate::train::step::ViewData;
 use evogs_math::Real;
-use evogs_splat::loss::photometric_loss_and_grad;
+use evogs_splat::loss::{photometric_loss, photometric_loss_and_grad};
 use evogs_splat::ssim::{SSIM_WINDOW, SsimWorkspace};
 use evogs_splat::window::{Window, footprint, to_window};
 use evogs_splat::{
     Image, PixelGrad, Preprocessed, Rect, Render, RenderGrad, RenderOptions, Splats, TILE_SIZE,
-    TileGrid, TiledRasterizer, preprocess_into, render_tiled_vjp_into,
+    TileGrid, TiledRasterizer, preprocess_into, render_tiled_into, render_tiled_vjp_into,
 };
 
 /// How far the SSIM of a pixel reads (pixels).
@@ -57,11 +57,16 @@ pub(crate) struct WindowLoss {
     target: Image<f32>,
     /// The SSIM map (or the pixel gradient) of the current window.
     map: Image<f32>,
+    /// Render settings.
+    opts: RenderOptions<f32>,
+    /// The D-SSIM weight λ.
+    lambda: f32,
 }
 
 impl WindowLoss {
-    /// Empty buffers; renders end on `background`.
-    pub(crate) fn new(background: [f32; 3]) -> Self {
+    /// Empty buffers for renders with `opts` and the loss of D-SSIM weight `lambda`.
+    pub(crate) fn new(opts: RenderOptions<f32>, lambda: f32) -> Self {
+        let background = opts.background;
         Self {
             rast: TiledRasterizer::new(),
             ssim: SsimWorkspace::default(),
@@ -73,19 +78,23 @@ impl WindowLoss {
             base_sum: 0.0,
             target: Image::new(0, 0),
             map: Image::new(0, 0),
+            opts,
+            lambda,
         }
+    }
+
+    /// The loss of `st` at `view`, rendered whole.
+    pub(crate) fn full_loss(&mut self, view: &ViewData<f32>, st: &Splats<f32>) -> f64 {
+        let opts = &self.opts;
+        render_tiled_into(st, &view.camera, opts, &mut self.rast, &mut self.fwd);
+        let rgb = &self.fwd.raster.rgb;
+        f64::from(photometric_loss(&mut self.ssim, rgb, &view.image, self.lambda, opts.par).total)
     }
 
     /// Renders `st` at `view` with `members` hidden and keeps its per-value loss: the base of
     /// the placements [`loss`](Self::loss) scores next.
-    pub(crate) fn set_base(
-        &mut self,
-        view: &ViewData<f32>,
-        st: &Splats<f32>,
-        members: &[usize],
-        opts: &RenderOptions<f32>,
-        lambda: f32,
-    ) {
+    pub(crate) fn set_base(&mut self, view: &ViewData<f32>, st: &Splats<f32>, members: &[usize]) {
+        let (opts, lambda) = (&self.opts, self.lambda);
         preprocess_into(st, &view.camera, opts, &mut self.fwd.pre);
         hide(&mut self.fwd.pre, members);
         self.rast.forward_into(
@@ -118,15 +127,14 @@ impl WindowLoss {
         view: &ViewData<f32>,
         probe: &Splats<f32>,
         members: &[usize],
-        opts: &RenderOptions<f32>,
-        lambda: f32,
     ) -> f64 {
         let (w, h) = (view.image.width(), view.image.height());
         #[allow(clippy::cast_precision_loss, reason = "a pixel count")]
         let n = (3 * w * h) as f64;
-        let Some((win, fp)) = self.render_window(view, probe, members, opts) else {
+        let Some((win, fp)) = self.render_window(view, probe, members) else {
             return self.base_sum / n;
         };
+        let (opts, lambda) = (&self.opts, self.lambda);
         let rgb = &self.fwd.raster.rgb;
         win.crop(&view.image, &mut self.target);
         if !self.map.same_size(rgb) {
@@ -167,14 +175,13 @@ impl WindowLoss {
         view: &ViewData<f32>,
         probe: &Splats<f32>,
         members: &[usize],
-        opts: &RenderOptions<f32>,
-        lambda: f32,
         grad: &mut RenderGrad<f32>,
     ) -> bool {
         let (w, h) = (view.image.width(), view.image.height());
-        let Some((win, _)) = self.render_window(view, probe, members, opts) else {
+        let Some((win, _)) = self.render_window(view, probe, members) else {
             return false;
         };
+        let (opts, lambda) = (&self.opts, self.lambda);
         win.crop(&view.image, &mut self.target);
         let rgb = &self.fwd.raster.rgb;
         if !self.map.same_size(rgb) {
@@ -216,8 +223,8 @@ impl WindowLoss {
         view: &ViewData<f32>,
         probe: &Splats<f32>,
         members: &[usize],
-        opts: &RenderOptions<f32>,
     ) -> Option<(Window, Rect)> {
+        let opts = &self.opts;
         preprocess_into(probe, &view.camera, opts, &mut self.fwd.pre);
         let fp = footprint(&self.fwd.pre, members.iter().copied())?;
         let grid = TileGrid::new(view.image.width(), view.image.height());
@@ -299,8 +306,8 @@ mod tests {
     fn the_window_loss_is_the_full_image_s() {
         let (splats, view, members, opts) = setup();
         assert!(members.len() > 20, "{} members", members.len());
-        let mut wl = WindowLoss::new(opts.background);
-        wl.set_base(&view, &splats, &members, &opts, 0.2);
+        let mut wl = WindowLoss::new(opts, 0.2);
+        wl.set_base(&view, &splats, &members);
         let mut rast = TiledRasterizer::new();
         let mut ssim = SsimWorkspace::default();
         // In place, moved, moved to the image's edge, out of sight, and on a fine grid of
@@ -323,7 +330,7 @@ mod tests {
             let want = f64::from(
                 photometric_loss(&mut ssim, &full.raster.rgb, &view.image, 0.2, Par::Seq).total,
             );
-            let got = wl.loss(&view, &p, &members, &opts, 0.2);
+            let got = wl.loss(&view, &p, &members);
             assert!(
                 (got - want).abs() <= 4e-6 * want,
                 "shift {d:?}: window {got}, full {want}"
@@ -360,11 +367,8 @@ mod tests {
             },
         );
         let mut got = want.clone();
-        let mut wl = WindowLoss::new(opts.background);
-        assert!(
-            wl.grad_into(&view, &p, &members, &opts, 0.2, &mut got),
-            "members seen"
-        );
+        let mut wl = WindowLoss::new(opts, 0.2);
+        assert!(wl.grad_into(&view, &p, &members, &mut got), "members seen");
         let mut max_err = 0.0f32;
         let mut scale = 0.0f32;
         for &i in &members {
@@ -404,8 +408,8 @@ mod tests {
     #[test]
     fn no_member_in_sight_gives_the_base_and_no_gradient() {
         let (splats, view, members, opts) = setup();
-        let mut wl = WindowLoss::new(opts.background);
-        wl.set_base(&view, &splats, &members, &opts, 0.2);
+        let mut wl = WindowLoss::new(opts, 0.2);
+        wl.set_base(&view, &splats, &members);
         let away = placed(&splats, &members, Vec3::new(60.0, 0.0, 0.0));
         let mut g = render_tiled_vjp(
             &away,
@@ -419,9 +423,6 @@ mod tests {
                 depth: None,
             },
         );
-        assert!(
-            !wl.grad_into(&view, &away, &members, &opts, 0.2, &mut g),
-            "unseen"
-        );
+        assert!(!wl.grad_into(&view, &away, &members, &mut g), "unseen");
     }
 }
