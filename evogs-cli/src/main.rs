@@ -56,7 +56,9 @@ enum Cmd {
         /// Split time of the future/backward protocols.
         #[arg(long)]
         split_time: Option<f64>,
-        /// Total iterations (warm-up included).
+        /// Total iterations (warm-up included). A new run's warm-up and temporal curriculum
+        /// are shortened to fit (a note says so); to stop early with the planned schedule,
+        /// set schedule.iterations in a --config file. With --resume: extends the run.
         #[arg(long)]
         iters: Option<u64>,
         /// Random seed.

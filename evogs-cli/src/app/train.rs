@@ -4,7 +4,7 @@
 use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
 use super::{Reporter, plot};
-use crate::config::{Protocol, TrainConfig};
+use crate::config::{Protocol, ScheduleConfig, TrainConfig};
 use crate::data::{Dataset, LoadOptions, SplitName};
 use crate::eval::{SplitMetrics, evaluate};
 use crate::model::Motion;
@@ -158,6 +158,31 @@ fn save_all(t: &Trainer, run: &RunFolder) -> Result<(), CommandError> {
     Ok(())
 }
 
+/// What `--iters` changed besides the iteration count: a new run's warm-up and temporal
+/// curriculum are shortened to fit in it (`asked`: the schedule without the flag), which
+/// changes the whole run, not only where it stops.
+fn iters_notes(asked: &ScheduleConfig, got: &ScheduleConfig) -> Vec<String> {
+    let mut out = Vec::new();
+    for (name, a, g) in [
+        ("warmup_iters", asked.warmup_iters, got.warmup_iters),
+        (
+            "curriculum_iters",
+            asked.curriculum_iters,
+            got.curriculum_iters,
+        ),
+    ] {
+        if a != g {
+            out.push(format!(
+                "note: --iters {} shortens schedule.{name} from {a} to {g} to fit; set \
+                 schedule.iterations in a --config file instead to stop early with the \
+                 planned schedule (and resume with --iters to go on)",
+                got.iterations
+            ));
+        }
+    }
+    out
+}
+
 /// Runs `evogs train`.
 ///
 /// # Errors
@@ -178,7 +203,17 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         TrainConfig::from_run_toml(&text)
             .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?
     } else {
-        resolve_config(args)?
+        let cfg = resolve_config(args)?;
+        if args.iters.is_some() {
+            let asked = resolve_config(&TrainArgs {
+                iters: None,
+                ..args.clone()
+            })?;
+            for note in iters_notes(&asked.schedule, &cfg.schedule) {
+                rep.info(&note);
+            }
+        }
+        cfg
     };
     if let (true, Some(n)) = (resuming, args.iters) {
         cfg.schedule.iterations = n;
@@ -304,4 +339,25 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
     };
     outcome.gif = render_sequence(&rargs, Some((&mut t.model, &ds)), rep)?.gif;
     Ok(outcome)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn iters_that_shorten_the_curriculum_are_reported() {
+        let asked = TrainConfig::fast().schedule;
+        let mut got = asked.clone();
+        got.iterations = 400;
+        assert!(iters_notes(&asked, &got).is_empty(), "nothing else changed");
+        got.curriculum_iters = 200;
+        let notes = iters_notes(&asked, &got);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].contains("curriculum_iters from 1500 to 200"),
+            "{}",
+            notes[0]
+        );
+    }
 }
