@@ -292,8 +292,8 @@ fn train_with_search<R: Default>(
     (at, result)
 }
 
-#[test]
-fn the_spin_search_is_due_once_and_leaves_a_trainable_model() {
+/// The tiny run with a spin search after iteration 70 that finds bodies in its small motion.
+fn spin_search_config() -> TrainConfig {
     let mut c = tiny_config();
     c.spin_search.at_iter = 70;
     // The tiny run's motion is small: a low threshold and small bodies let it find some.
@@ -307,14 +307,39 @@ fn the_spin_search_is_due_once_and_leaves_a_trainable_model() {
     c.spin_search.fit_iters = 20;
     // A refit of each searched body's shape, spin and path, written back into the model.
     c.spin_search.refit_iters = 5;
-    let (due, chosen) = train_with_search(trainer(c), Trainer::spin_search_due, |t| {
-        t.spin_search(&mut |_| {})
-    });
+    c
+}
+
+#[test]
+fn the_spin_search_is_due_once_and_leaves_a_trainable_model() {
+    let (due, chosen) = train_with_search(
+        trainer(spin_search_config()),
+        Trainer::spin_search_due,
+        |t| t.spin_search(&mut |_| {}),
+    );
     assert_eq!(due, vec![70], "due exactly once, after iteration 70");
     assert!(
         chosen.iter().any(Option::is_some),
         "at least one body searched: {chosen:?}"
     );
+}
+
+#[test]
+fn the_spin_search_leaves_the_orbit_search_s_bodies_alone() {
+    // Every body lies inside an orbit body as large as the scene: none is searched.
+    let (_, (chosen, left)) = train_with_search(
+        trainer(spin_search_config()),
+        Trainer::spin_search_due,
+        |t| {
+            t.orbit_bodies = vec![([0.0; 3], 1e9)];
+            let mut left = 0;
+            let chosen =
+                t.spin_search(&mut |m| left += usize::from(m.contains("left to its orbit")));
+            (chosen, left)
+        },
+    );
+    assert!(left > 0, "bodies were found and left alone");
+    assert!(chosen.is_empty(), "no body searched: {chosen:?}");
 }
 
 #[test]
@@ -345,7 +370,15 @@ fn the_orbit_search_is_due_once_and_leaves_a_trainable_model() {
     c.orbit_search.min_gain = f64::NEG_INFINITY;
     c.orbit_search.fit_iters = 20;
     let (due, found) = train_with_search(trainer(c), Trainer::orbit_search_due, |t| {
-        t.orbit_search(&mut |_| {})
+        let found = t.orbit_search(&mut |_| {});
+        // The bodies it moved are recorded for the spin search, and kept by a checkpoint.
+        assert_eq!(t.orbit_bodies.len(), found.len(), "orbit bodies recorded");
+        let path = std::env::temp_dir().join(format!("evogs-orbit-{}.bin", std::process::id()));
+        checkpoint::save(t, &path).expect("save");
+        let back = checkpoint::resume(&path, t.views.clone()).expect("resume");
+        let _ = std::fs::remove_file(&path);
+        assert_eq!(back.orbit_bodies, t.orbit_bodies, "orbit bodies round-trip");
+        found
     });
     assert_eq!(due, vec![50], "due exactly once, after iteration 50");
     assert!(!found.is_empty(), "at least one orbit taken");

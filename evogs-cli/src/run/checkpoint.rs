@@ -80,6 +80,7 @@ pub fn save(t: &Trainer, path: &Path) -> Result<(), CheckpointError> {
         "rng_state": t.rng.state().to_string(),
         "config": t.cfg.to_toml(),
         "log": t.log,
+        "orbit_bodies": t.orbit_bodies,
     });
     let mut ar = Archive::new(meta);
     let c = &m.canonical;
@@ -328,6 +329,7 @@ pub fn resume(path: &Path, views: Vec<ViewData<f32>>) -> Result<Trainer, Checkpo
         .collect();
     t.order_pos = usize::try_from(meta["order_pos"].as_u64().unwrap_or(0)).unwrap_or(0);
     t.log = serde_json::from_value::<Vec<LogRow>>(meta["log"].clone()).unwrap_or_default();
+    t.orbit_bodies = serde_json::from_value(meta["orbit_bodies"].clone()).unwrap_or_default();
     t.stats = DensifyStats {
         accum: ar.f32("stats.accum").unwrap_or_default().to_vec(),
         count: ar

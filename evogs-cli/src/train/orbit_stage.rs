@@ -50,6 +50,11 @@ impl Trainer {
             &mut stepper,
             log,
         );
+        self.orbit_bodies.extend(
+            found
+                .iter()
+                .map(|f| (f.group.centroid.to_array(), f.group.radius)),
+        );
         if !found.is_empty() {
             // The search leaves the model as it was, so the learnt paths the fit keeps for
             // every other Gaussian are sampled only when there is a fit.

@@ -4,6 +4,7 @@ use super::search_stage::search_context;
 use super::trainer::Trainer;
 use crate::motion::bodies::{Paths, find_bodies};
 use crate::motion::spin::{refit, search};
+use evogs_math::Vec3;
 
 impl Trainer {
     /// Whether the spin search is due before the next step: `at_iter` iterations done, the
@@ -29,6 +30,24 @@ impl Trainer {
             self.par,
         );
         let mut bodies = find_bodies(&paths, &ctx.p0, &cfg);
+        // A body the orbit search moved keeps its orbit and spin: the spin search's model of
+        // it (a sampled centroid path) is coarser, and its refits moved a found tumble away
+        // from the truth (README, "The spin search refits its bodies").
+        bodies.retain(|b| {
+            let orbit = self.orbit_bodies.iter().find(|(c, r)| {
+                let d = b.c0 - Vec3::new(c[0], c[1], c[2]);
+                d.norm() <= *r
+            });
+            if let Some((c, _)) = orbit {
+                log(&format!(
+                    "spin search: the body about {:.3?} ({} Gaussians) is the orbit search's \
+                     body about {c:.3?}; left to its orbit",
+                    b.c0.to_array(),
+                    b.members.len()
+                ));
+            }
+            orbit.is_none()
+        });
         for (b, body) in bodies.iter().enumerate() {
             log(&format!(
                 "spin search: body {b}: {} Gaussians ({} moving) about {:.3?}, radius {:.3}, learnt spin {:.3} rad per unit time, rigid-fit RMS {:.4}",
