@@ -80,7 +80,6 @@ pub fn save(t: &Trainer, path: &Path) -> Result<(), CheckpointError> {
         "rng_state": t.rng.state().to_string(),
         "config": t.cfg.to_toml(),
         "log": t.log,
-        "orbit_bodies": t.orbit_bodies,
     });
     let mut ar = Archive::new(meta);
     let c = &m.canonical;
@@ -130,6 +129,13 @@ pub fn save(t: &Trainer, path: &Path) -> Result<(), CheckpointError> {
     ar.put_u64(
         "order",
         &t.order.iter().map(|&v| v as u64).collect::<Vec<_>>(),
+    );
+    ar.put_u64(
+        "orbit_bodies",
+        &t.orbit_bodies
+            .iter()
+            .flat_map(|(c, r)| [c[0], c[1], c[2], *r].map(f64::to_bits))
+            .collect::<Vec<_>>(),
     );
     ar.write(path)?;
     Ok(())
@@ -329,7 +335,16 @@ pub fn resume(path: &Path, views: Vec<ViewData<f32>>) -> Result<Trainer, Checkpo
         .collect();
     t.order_pos = usize::try_from(meta["order_pos"].as_u64().unwrap_or(0)).unwrap_or(0);
     t.log = serde_json::from_value::<Vec<LogRow>>(meta["log"].clone()).unwrap_or_default();
-    t.orbit_bodies = serde_json::from_value(meta["orbit_bodies"].clone()).unwrap_or_default();
+    // Bit patterns, so that they come back exactly (serde_json's float parser may not).
+    t.orbit_bodies = ar
+        .u64("orbit_bodies")
+        .unwrap_or_default()
+        .chunks_exact(4)
+        .map(|b| {
+            let f = |k: usize| f64::from_bits(b[k]);
+            ([f(0), f(1), f(2)], f(3))
+        })
+        .collect();
     t.stats = DensifyStats {
         accum: ar.f32("stats.accum").unwrap_or_default().to_vec(),
         count: ar

@@ -5,6 +5,7 @@ use super::trainer::Trainer;
 use crate::motion::bodies::{Paths, find_bodies};
 use crate::motion::spin::{refit, search};
 use evogs_math::Vec3;
+use std::time::Instant;
 
 impl Trainer {
     /// Whether the spin search is due before the next step: `at_iter` iterations done, the
@@ -20,6 +21,7 @@ impl Trainer {
     /// and results go to `log`. Returns the chosen multipliers (`None`: body not searched).
     pub fn spin_search(&mut self, log: &mut dyn FnMut(&str)) -> Vec<Option<f64>> {
         let cfg = self.cfg.spin_search.clone();
+        let start = Instant::now();
         let mut stepper = None;
         let paths = Paths::record(&mut self.model, self.time_range, &mut stepper);
         let mut ctx = search_context(
@@ -81,6 +83,12 @@ impl Trainer {
                 log,
             );
         }
+        log(&format!(
+            "spin search: {} of {} bodies searched in {:.0} s",
+            chosen.iter().filter(|c| c.is_some()).count(),
+            chosen.len(),
+            start.elapsed().as_secs_f64()
+        ));
         chosen
     }
 }
