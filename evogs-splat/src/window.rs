@@ -229,16 +229,27 @@ mod tests {
     use alloc::vec;
     use alloc::vec::Vec;
 
-    fn scene() -> (Splats<f64>, PinholeCamera<f64>) {
-        random_scene::<f64>(400, 72, 5, [0.01, 0.08], [0.3, 0.95])
+    /// A random scene seen at 72 × 72: the Gaussians, the camera, the render options, a
+    /// rasterizer and the full render.
+    type Rendered = (
+        Splats<f64>,
+        PinholeCamera<f64>,
+        RenderOptions<f64>,
+        TiledRasterizer<f64>,
+        Render<f64>,
+    );
+
+    fn rendered_scene() -> Rendered {
+        let (splats, camera) = random_scene::<f64>(400, 72, 5, [0.01, 0.08], [0.3, 0.95]);
+        let opts = RenderOptions::default();
+        let mut rast = TiledRasterizer::new();
+        let full = render_tiled(&splats, &camera, &opts, &mut rast);
+        (splats, camera, opts, rast, full)
     }
 
     #[test]
     fn window_pixels_are_the_full_render_s() {
-        let (splats, camera) = scene();
-        let opts = RenderOptions::default();
-        let mut rast = TiledRasterizer::new();
-        let full = render_tiled(&splats, &camera, &opts, &mut rast);
+        let (splats, camera, opts, mut rast, full) = rendered_scene();
         let grid = TileGrid::new(72, 72);
         // Interior, touching the right and bottom edges (partial tiles), and the whole image.
         for tiles in [
@@ -281,10 +292,7 @@ mod tests {
     fn window_gradients_are_the_full_render_s_with_the_outside_held() {
         // A cotangent on the window's pixels only: the window's VJP equals the full VJP with
         // the same cotangent and zeros outside.
-        let (splats, camera) = scene();
-        let opts = RenderOptions::default();
-        let mut rast = TiledRasterizer::new();
-        let full = render_tiled(&splats, &camera, &opts, &mut rast);
+        let (splats, camera, opts, mut rast, full) = rendered_scene();
         let w = Window::from_tiles(
             &TileGrid::new(72, 72),
             Rect {
@@ -352,10 +360,7 @@ mod tests {
 
     #[test]
     fn outside_the_footprint_the_gaussians_change_no_pixel() {
-        let (splats, camera) = scene();
-        let opts = RenderOptions::default();
-        let mut rast = TiledRasterizer::new();
-        let full = render_tiled(&splats, &camera, &opts, &mut rast);
+        let (splats, camera, opts, mut rast, full) = rendered_scene();
         let ids: Vec<usize> = (0..30).collect();
         let tiles = footprint(&preprocess(&splats, &camera, &opts), ids.iter().copied())
             .expect("some of them are seen");

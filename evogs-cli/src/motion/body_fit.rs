@@ -462,16 +462,9 @@ pub(super) fn refit_body(
         let (v, st) = frames.get(order[e]);
         ws.probe.clone_from(st);
         place_params(&mut ws.probe, sub, &params, v.time);
-        // The members' exact gradient from a window around them (`window_loss`); none if
+        // The members' exact gradient from a window around them (`window_loss`); zero if
         // no member is in sight.
-        let seen = ws.window.grad_into(v, &ws.probe, members, &mut ws.grad);
-        if !seen {
-            if ws.grad.splats.len() == ws.probe.len() {
-                ws.grad.splats.fill_zero();
-            } else {
-                ws.grad.splats = ws.probe.zeros_like();
-            }
-        }
+        ws.window.grad_into(v, &ws.probe, members, &mut ws.grad);
         let g = &ws.grad.splats;
         // Back to the canonical members, the spin and the path.
         let tau = v.time - t0;

@@ -104,9 +104,7 @@ impl WindowLoss {
             &mut self.fwd.raster,
         );
         let rgb = &self.fwd.raster.rgb;
-        if !self.map.same_size(rgb) {
-            self.map = Image::new(rgb.width(), rgb.height());
-        }
+        fit(&mut self.map, rgb.width(), rgb.height());
         self.ssim
             .ssim_map(rgb, &view.image, &mut self.map, opts.par);
         self.base.clear();
@@ -136,10 +134,6 @@ impl WindowLoss {
         };
         let (opts, lambda) = (&self.opts, self.lambda);
         let rgb = &self.fwd.raster.rgb;
-        win.crop(&view.image, &mut self.target);
-        if !self.map.same_size(rgb) {
-            self.map = Image::new(rgb.width(), rgb.height());
-        }
         self.ssim
             .ssim_map(rgb, &self.target, &mut self.map, opts.par);
         // I: the footprint's pixels grown by the SSIM's reach, clipped to the image.
@@ -169,7 +163,7 @@ impl WindowLoss {
     /// Adds `g·∂L/∂(probe's parameters)` for the members into `grad.splats` (which is
     /// overwritten; entries of Gaussians whose pixels the window cuts off are not the full
     /// image's) through a window around them, `L` the full image's loss of `probe` at `view`.
-    /// `false` if no member is seen (no gradient: `grad` untouched).
+    /// `false` if no member is seen (then `grad.splats` is zero).
     pub(crate) fn grad_into(
         &mut self,
         view: &ViewData<f32>,
@@ -179,14 +173,15 @@ impl WindowLoss {
     ) -> bool {
         let (w, h) = (view.image.width(), view.image.height());
         let Some((win, _)) = self.render_window(view, probe, members) else {
+            if grad.splats.len() == probe.len() && grad.splats.sh_degree == probe.sh_degree {
+                grad.splats.fill_zero();
+            } else {
+                grad.splats = probe.zeros_like();
+            }
             return false;
         };
         let (opts, lambda) = (&self.opts, self.lambda);
-        win.crop(&view.image, &mut self.target);
         let rgb = &self.fwd.raster.rgb;
-        if !self.map.same_size(rgb) {
-            self.map = Image::new(rgb.width(), rgb.height());
-        }
         self.map.data_mut().fill(0.0);
         #[allow(clippy::cast_precision_loss, reason = "pixel counts")]
         let share = win.pixels() as f32 / (w * h) as f32;
@@ -216,8 +211,9 @@ impl WindowLoss {
     }
 
     /// Preprocesses `probe` for the full image and renders the window of the members'
-    /// footprint grown by a tile; the window and the footprint (tiles), or `None` if no
-    /// member touches a tile.
+    /// footprint grown by a tile, with the view's image cropped to it and the map buffer
+    /// sized to it; the window and the footprint (tiles), or `None` if no member touches a
+    /// tile.
     fn render_window(
         &mut self,
         view: &ViewData<f32>,
@@ -236,7 +232,16 @@ impl WindowLoss {
             opts.par,
             &mut self.fwd.raster,
         );
+        win.crop(&view.image, &mut self.target);
+        fit(&mut self.map, win.width, win.height);
         Some((win, fp))
+    }
+}
+
+/// Resizes `img` to `w × h` if it is not that size (its values are then overwritten).
+fn fit(img: &mut Image<f32>, w: usize, h: usize) {
+    if img.width() != w || img.height() != h {
+        *img = Image::new(w, h);
     }
 }
 
