@@ -77,12 +77,27 @@ pub fn evaluate(
     range: Option<(f64, f64)>,
     background: [f32; 3],
     par: Par,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Result<SplitMetrics, String> {
     let selected: Vec<&View> = views
         .iter()
         .filter(|v| range.is_none_or(|(a, b)| v.time >= a && v.time <= b))
         .collect();
+    evaluate_views(model, &selected, split, background, par, progress)
+}
+
+/// Evaluates the given views (any selection, e.g. a study's held-out set), in order.
+///
+/// # Errors
+/// A view without an image or with a bad camera.
+pub fn evaluate_views(
+    model: &mut Model<f32>,
+    selected: &[&View],
+    split: SplitName,
+    background: [f32; 3],
+    par: Par,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<SplitMetrics, String> {
     let mut frames = Vec::with_capacity(selected.len());
     let mut ws = SsimWorkspace::default();
     let mut scratch = Splats::default();

@@ -7,6 +7,7 @@ use evogs_cli::app::evaluate::{evaluate_run, parse_range};
 use evogs_cli::app::export::export;
 use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
 use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
+use evogs_cli::app::study::{StudyArgs, StudyProtocol, parse_motions, run_study};
 use evogs_cli::app::train::{TrainArgs, train};
 use evogs_cli::check::grad::check_grad;
 use evogs_cli::check::order::{Expect, check_order};
@@ -67,6 +68,44 @@ enum Cmd {
         /// Continue from RUN/checkpoint.bin (with --iters to extend the run).
         #[arg(long)]
         resume: bool,
+    },
+    /// Run the paper's protocols for several motions with one preset, budget and dataset:
+    /// a run per (protocol, motion, seed), each evaluated on its protocol's held-out sets,
+    /// summarised in OUT/study.json, OUT/study.md (table) and OUT/study.png (bars).
+    /// Resumable: finished runs are reused, interrupted runs continue from their checkpoint.
+    Study {
+        /// Dataset folder (default: data/toys-mini shipped with evogs).
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Study folder (runs in OUT/runs/, the summary in OUT/study.*).
+        #[arg(long, default_value = "runs/study")]
+        out: PathBuf,
+        /// Protocols, comma-separated: full, sparse:K (K >= 2), future:TAU, backward:TAU
+        /// (0 < TAU < 1).
+        #[arg(long, default_value = "full,sparse:4,future:0.75")]
+        protocols: String,
+        /// Motions, comma-separated: velocity, deformation, static.
+        #[arg(long, default_value = "velocity,deformation,static")]
+        motions: String,
+        /// Preset of every run: fast (default) or paper.
+        #[arg(long)]
+        preset: Option<String>,
+        /// TOML file overlaid on the preset for every run.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Iterations per run (default: the preset's; shortens warm-up and curriculum to fit).
+        #[arg(long)]
+        iters: Option<u64>,
+        /// Repeats per protocol and motion, with seeds seed, seed+1, ...; the table reports
+        /// mean and standard deviation.
+        #[arg(long, default_value_t = 1)]
+        seeds: usize,
+        /// Runs at once; the threads are divided among them.
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        /// Retrain every run, finished or interrupted.
+        #[arg(long)]
+        force: bool,
     },
     /// Evaluate a run: PSNR and SSIM per frame and mean -> RUN/metrics-<split>.json.
     Eval {
@@ -279,6 +318,43 @@ fn main() -> Result<()> {
             if let Some(g) = &o.gif {
                 println!("gif: {}", g.display());
             }
+        }
+        Cmd::Study {
+            data,
+            out,
+            protocols,
+            motions,
+            preset,
+            config,
+            iters,
+            seeds,
+            jobs,
+            force,
+        } => {
+            let args = StudyArgs {
+                data,
+                out,
+                protocols: StudyProtocol::parse_list(&protocols)
+                    .map_err(|e| anyhow::anyhow!("--protocols: {e}"))?,
+                motions: parse_motions(&motions).map_err(|e| anyhow::anyhow!("--motions: {e}"))?,
+                preset,
+                config,
+                iters,
+                seeds,
+                jobs,
+                force,
+                command: std::env::args().collect::<Vec<_>>().join(" "),
+            };
+            let o = run_study(&args, &mut term)?;
+            println!("{}", o.summary.markdown());
+            println!(
+                "{} runs trained, {} reused -> {}, {}, {}",
+                o.trained,
+                o.reused,
+                o.json.display(),
+                o.markdown.display(),
+                o.chart.display()
+            );
         }
         Cmd::Eval {
             run,

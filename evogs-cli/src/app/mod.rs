@@ -1,5 +1,5 @@
 //! The commands of the `evogs` binary as library functions (the binary only parses
-//! arguments): training, evaluation, rendering, export. Output goes through a [`Reporter`];
+//! arguments): training, evaluation, rendering, export, studies. Output goes through a [`Reporter`];
 //! the library never prints.
 
 pub mod evaluate;
@@ -8,6 +8,7 @@ pub mod inject;
 pub mod paths;
 pub mod plot;
 pub mod render;
+pub mod study;
 pub mod train;
 
 /// Receives progress and messages from long-running commands.

@@ -35,6 +35,18 @@ pub enum Motion {
     Static,
 }
 
+impl Motion {
+    /// Lowercase name (`velocity`, `deformation`, `static`), as on the command line.
+    #[must_use]
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Self::Velocity => "velocity",
+            Self::Deformation => "deformation",
+            Self::Static => "static",
+        }
+    }
+}
+
 impl std::str::FromStr for Motion {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {

@@ -1,0 +1,494 @@
+//! `evogs study`: the paper's protocols as one command. Every (protocol, motion, seed) is
+//! trained with the same preset, configuration, budget and data in a folder of its own,
+//! evaluated on the protocol's held-out sets, and summarised in `study.json`, `study.md`
+//! (one row per protocol and held-out set, one column per motion, and velocity − deformation
+//! in dB) and `study.png` (grouped bars).
+//!
+//! ```text
+//! OUT/study.json  study.md  study.png
+//! OUT/runs/<protocol>-<motion>-s<k>/   config.toml checkpoint.bin log.csv ... study-run.json
+//! ```
+//!
+//! A study is resumable: a run with a `study-run.json` is not trained again (its metrics are
+//! reused), a run with only a checkpoint continues from it, and `--force` retrains
+//! everything. A folder that holds a run of another configuration is an error, not silently
+//! reused. Every input is checked before the first iteration: the protocols and their
+//! held-out frames, the configuration of every run, the dataset and the output folder.
+
+mod progress;
+mod protocol;
+mod report;
+mod runner;
+
+pub use protocol::{HeldOutSet, StudyProtocol};
+pub use report::{Cell, CostRow, Provenance, Row, RunRecord, SetMetrics, Stat, StudySummary};
+
+use super::Reporter;
+use super::paths::shipped_scene;
+use super::plot::{BarGroup, save_bars};
+use super::train::{CommandError, TrainArgs, load_dataset, resolve_config};
+use crate::config::TrainConfig;
+use crate::model::Motion;
+use progress::{ChannelReporter, Message, StudyProgress};
+use runner::{PlannedRun, RunState, execute, read_record, write_atomic};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::mpsc;
+
+/// The arguments of `evogs study`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StudyArgs {
+    /// Dataset folder (default: the shipped scene).
+    pub data: Option<PathBuf>,
+    /// Study folder.
+    pub out: PathBuf,
+    /// Protocols, in table order.
+    pub protocols: Vec<StudyProtocol>,
+    /// Motions, in column order.
+    pub motions: Vec<Motion>,
+    /// Preset (`fast` by default).
+    pub preset: Option<String>,
+    /// Configuration file overlaid on the preset.
+    pub config: Option<PathBuf>,
+    /// Iterations per run (default: the preset's).
+    pub iters: Option<u64>,
+    /// Repeats per (protocol, motion), with seeds `seed`, `seed + 1`, ...
+    pub seeds: usize,
+    /// Runs at once (the threads are divided among them).
+    pub jobs: usize,
+    /// Retrain finished and interrupted runs.
+    pub force: bool,
+    /// The command line, recorded in `study.json`.
+    pub command: String,
+}
+
+impl Default for StudyArgs {
+    fn default() -> Self {
+        Self {
+            data: None,
+            out: PathBuf::from("runs/study"),
+            protocols: StudyProtocol::defaults(),
+            motions: vec![Motion::Velocity, Motion::Deformation, Motion::Static],
+            preset: None,
+            config: None,
+            iters: None,
+            seeds: 1,
+            jobs: 1,
+            force: false,
+            command: String::from("evogs study"),
+        }
+    }
+}
+
+/// What a study produced.
+#[derive(Clone, Debug)]
+pub struct StudyOutcome {
+    /// The summary written to `study.json`.
+    pub summary: StudySummary,
+    /// `study.json`.
+    pub json: PathBuf,
+    /// `study.md`.
+    pub markdown: PathBuf,
+    /// `study.png`.
+    pub chart: PathBuf,
+    /// Runs trained (or resumed) by this call.
+    pub trained: usize,
+    /// Runs whose earlier results were reused.
+    pub reused: usize,
+}
+
+/// Parses a comma-separated list of motions (`velocity,deformation,static`).
+///
+/// # Errors
+/// An unknown motion, an empty list or a repeated motion.
+pub fn parse_motions(s: &str) -> Result<Vec<Motion>, String> {
+    let mut out: Vec<Motion> = Vec::new();
+    for part in s.split(',') {
+        let m: Motion = part.trim().parse()?;
+        if out.contains(&m) {
+            return Err(format!("motion `{}` is listed twice", m.as_str()));
+        }
+        out.push(m);
+    }
+    Ok(out)
+}
+
+/// FNV-1a (64 bit) of a text, as 16 hex digits: an identity check of configurations, not a
+/// cryptographic hash (a well-known six-line function; no dependency needed).
+fn config_hash(text: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// The CPU model and logical CPU count of this machine.
+fn machine() -> String {
+    let cpus = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    format!("{model}, {cpus} logical CPUs, {}", std::env::consts::OS)
+}
+
+/// Threads available to the study (rayon's global pool, which `RAYON_NUM_THREADS` sets).
+fn total_threads() -> usize {
+    #[cfg(feature = "rayon")]
+    {
+        rayon::current_num_threads()
+    }
+    #[cfg(not(feature = "rayon"))]
+    {
+        1
+    }
+}
+
+/// Checks that `dir` can be created and written, leaving nothing behind.
+fn check_writable(dir: &Path) -> Result<(), CommandError> {
+    let fail = |e: std::io::Error| {
+        CommandError(format!(
+            "{}: the study folder cannot be written: {e}",
+            dir.display()
+        ))
+    };
+    std::fs::create_dir_all(dir).map_err(fail)?;
+    let probe = dir.join(format!(".evogs-write-check-{}", std::process::id()));
+    std::fs::write(&probe, b"").map_err(fail)?;
+    std::fs::remove_file(&probe).map_err(fail)
+}
+
+/// The hash of the configuration stored in a run folder, if it has one.
+fn stored_config_hash(run_dir: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(run_dir.join("config.toml")).ok()?;
+    let cfg = TrainConfig::from_run_toml(&text).ok()?;
+    Some(config_hash(&cfg.to_toml()))
+}
+
+/// Plans every run, checks its configuration, and finds what is already done.
+fn plan(
+    args: &StudyArgs,
+    data: &Path,
+    base: &TrainConfig,
+) -> Result<Vec<PlannedRun>, CommandError> {
+    let mut runs = Vec::new();
+    for &p in &args.protocols {
+        for &m in &args.motions {
+            for repeat in 0..args.seeds {
+                let seed = base.seed + repeat as u64;
+                let folder = format!("runs/{}-{}-s{repeat}", p.slug(), m.as_str());
+                let mut targs = TrainArgs {
+                    data: Some(data.to_path_buf()),
+                    out: args.out.join(&folder),
+                    config: args.config.clone(),
+                    preset: args.preset.clone(),
+                    motion: Some(m),
+                    iters: args.iters,
+                    seed: Some(seed),
+                    skip_outputs: true,
+                    ..TrainArgs::default()
+                };
+                let mut probe = base.data.clone();
+                p.apply(&mut probe);
+                targs.protocol = Some(probe.protocol);
+                targs.stride = Some(probe.stride);
+                targs.split_time = Some(probe.split_time);
+                let cfg =
+                    resolve_config(&targs).map_err(|e| CommandError(format!("{folder}: {e}")))?;
+                let hash = config_hash(&cfg.to_toml());
+                let mut run = PlannedRun {
+                    protocol: p,
+                    motion: m,
+                    repeat,
+                    seed,
+                    folder,
+                    args: targs,
+                    config_hash: hash,
+                    iterations: cfg.schedule.iterations,
+                    state: RunState::Fresh,
+                };
+                run.state = state_of(&run, args.force)?;
+                runs.push(run);
+            }
+        }
+    }
+    Ok(runs)
+}
+
+/// What has to happen to `run`, from what its folder holds.
+fn state_of(run: &PlannedRun, force: bool) -> Result<RunState, CommandError> {
+    if force {
+        return Ok(RunState::Fresh);
+    }
+    let other = |what: &str| {
+        CommandError(format!(
+            "{}: holds {what} of another configuration than this study's; pass --force to \
+             retrain it, or choose another --out",
+            run.args.out.display()
+        ))
+    };
+    let record = run.record_path();
+    if record.is_file() {
+        let r = read_record(&record)?;
+        return if r.config_hash == run.config_hash {
+            Ok(RunState::Done)
+        } else {
+            Err(other("a finished run"))
+        };
+    }
+    if run.args.out.join("checkpoint.bin").is_file() {
+        return match stored_config_hash(&run.args.out) {
+            Some(h) if h == run.config_hash => Ok(RunState::Resume),
+            _ => Err(other("a checkpoint")),
+        };
+    }
+    Ok(RunState::Fresh)
+}
+
+/// Runs `evogs study`.
+///
+/// # Errors
+/// Bad arguments, data or configuration (all checked before any training), or a run that
+/// failed (finished runs stay reusable).
+pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcome, CommandError> {
+    if args.protocols.is_empty() || args.motions.is_empty() {
+        return Err(CommandError(
+            "a study needs at least one protocol and one motion".into(),
+        ));
+    }
+    if args.seeds == 0 {
+        return Err(CommandError("--seeds must be at least 1".into()));
+    }
+    if args.jobs == 0 {
+        return Err(CommandError("--jobs must be at least 1".into()));
+    }
+    let base = resolve_config(&TrainArgs {
+        config: args.config.clone(),
+        preset: args.preset.clone(),
+        iters: args.iters,
+        ..TrainArgs::default()
+    })?;
+    let data = args.data.clone().unwrap_or_else(shipped_scene);
+    rep.info(&format!("data: {}", data.display()));
+    let ds = load_dataset(&data, &base, true)?;
+    let sets: Vec<Vec<HeldOutSet>> = args
+        .protocols
+        .iter()
+        .map(|p| p.held_out_sets(&ds))
+        .collect::<Result<_, _>>()
+        .map_err(CommandError)?;
+    check_writable(&args.out)?;
+    let runs = plan(args, &data, &base)?;
+    if args.force {
+        for r in &runs {
+            if r.args.out.exists() {
+                std::fs::remove_dir_all(&r.args.out).map_err(|e| {
+                    CommandError(format!(
+                        "{}: cannot clear for --force: {e}",
+                        r.args.out.display()
+                    ))
+                })?;
+            }
+        }
+    }
+    let threads = total_threads();
+    let jobs = args.jobs.min(runs.len()).max(1);
+    let per_job = (threads / jobs).max(1);
+    let pending: Vec<usize> = (0..runs.len())
+        .filter(|&i| runs[i].state != RunState::Done)
+        .collect();
+    rep.info(&format!(
+        "{} runs: {} to train, {} to resume, {} finished earlier; {jobs} at a time with {per_job} \
+         thread(s) each",
+        runs.len(),
+        runs.iter().filter(|r| r.state == RunState::Fresh).count(),
+        runs.iter().filter(|r| r.state == RunState::Resume).count(),
+        runs.iter().filter(|r| r.state == RunState::Done).count(),
+    ));
+    let failure = train_pending(
+        &runs,
+        &pending,
+        &ds,
+        &sets,
+        &args.protocols,
+        jobs,
+        per_job,
+        rep,
+    );
+    let reused = runs.len() - pending.len();
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    // The table is built from the records as stored, for reused and new runs alike, so a
+    // study that reuses every run reproduces its table exactly.
+    let records: Vec<RunRecord> = runs
+        .iter()
+        .map(|r| read_record(&r.record_path()))
+        .collect::<Result<_, _>>()?;
+    let summary = StudySummary::new(
+        Provenance {
+            command: args.command.clone(),
+            evogs_version: env!("CARGO_PKG_VERSION").to_string(),
+            date: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
+            data: std::fs::canonicalize(&data)
+                .unwrap_or_else(|_| data.clone())
+                .display()
+                .to_string(),
+            preset: base.preset.clone(),
+            config_file: args.config.as_ref().map(|p| p.display().to_string()),
+            config_hash: config_hash(&base.to_toml()),
+            iterations: base.schedule.iterations,
+            seeds: args.seeds,
+            jobs,
+            threads,
+            machine: machine(),
+        },
+        args.protocols.clone(),
+        args.motions.clone(),
+        records,
+    );
+    let json = args.out.join("study.json");
+    let markdown = args.out.join("study.md");
+    let chart = args.out.join("study.png");
+    let text = serde_json::to_string_pretty(&summary)
+        .map_err(|e| CommandError(format!("cannot encode the study: {e}")))?;
+    write_atomic(&json, text.as_bytes())?;
+    write_atomic(&markdown, summary.markdown().as_bytes())?;
+    write_chart(&summary, &chart)?;
+    Ok(StudyOutcome {
+        summary,
+        json,
+        markdown,
+        chart,
+        trained: pending.len(),
+        reused,
+    })
+}
+
+/// Trains the pending runs, `jobs` at a time, showing their progress on `rep` (each run
+/// writes its record). Returns the first failure (the other runs in flight finish, none starts
+/// after it).
+fn train_pending(
+    runs: &[PlannedRun],
+    pending: &[usize],
+    ds: &crate::data::Dataset,
+    sets: &[Vec<HeldOutSet>],
+    protocols: &[StudyProtocol],
+    jobs: usize,
+    per_job: usize,
+    rep: &mut dyn Reporter,
+) -> Option<CommandError> {
+    if pending.is_empty() {
+        return None;
+    }
+    let labels = pending.iter().map(|&i| runs[i].label()).collect();
+    let iters = pending.iter().map(|&i| runs[i].iterations).collect();
+    let mut shown = StudyProgress::new(labels, iters, jobs);
+    shown.open(rep);
+    let next = AtomicUsize::new(0);
+    let stop = AtomicBool::new(false);
+    let (tx, rx) = mpsc::channel::<Message>();
+    let mut failure = None;
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            let tx = tx.clone();
+            let (next, stop) = (&next, &stop);
+            scope.spawn(move || {
+                loop {
+                    let k = next.fetch_add(1, Ordering::SeqCst);
+                    if k >= pending.len() || stop.load(Ordering::SeqCst) {
+                        break;
+                    }
+                    let run = &runs[pending[k]];
+                    let _ = tx.send(Message::Begin(k));
+                    let mut reporter = ChannelReporter::new(k, tx.clone());
+                    let p = protocols.iter().position(|&q| q == run.protocol);
+                    let sets = &sets[p.unwrap_or(0)];
+                    let res = execute(run, ds, sets, per_job, &mut reporter);
+                    if res.is_err() {
+                        stop.store(true, Ordering::SeqCst);
+                    }
+                    let _ = tx.send(Message::End(k, res));
+                }
+            });
+        }
+        drop(tx);
+        for m in rx {
+            match m {
+                Message::Begin(k) => shown.begin(k, rep),
+                Message::Report(e) => shown.show(e, rep),
+                Message::End(k, res) => {
+                    shown.end(k, res.is_ok(), rep);
+                    if let Err(e) = res {
+                        failure.get_or_insert(e);
+                    }
+                }
+            }
+        }
+    });
+    failure
+}
+
+/// `study.png`: PSNR bars, a group per row of the table, a bar per motion.
+fn write_chart(s: &StudySummary, path: &Path) -> Result<(), CommandError> {
+    let groups: Vec<BarGroup> = s
+        .rows
+        .iter()
+        .map(|r| BarGroup {
+            label: r.protocol.to_string(),
+            sublabel: r.set.clone(),
+            values: s
+                .motions
+                .iter()
+                .map(|&m| r.cell(m).map(|c| c.psnr.mean))
+                .collect(),
+        })
+        .collect();
+    let names: Vec<&str> = s.motions.iter().map(|&m| m.as_str()).collect();
+    let tmp = path.with_extension(format!("tmp-{}.png", std::process::id()));
+    save_bars(
+        "evogs study: held-out PSNR by protocol and motion",
+        "PSNR (dB)",
+        &names,
+        &groups,
+        &tmp,
+    )
+    .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display())))
+    .map_err(|e| {
+        std::fs::remove_file(&tmp).ok();
+        CommandError(e)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn motions_parse_in_order_without_repeats() {
+        assert_eq!(
+            parse_motions("velocity,deformation,static").expect("defaults"),
+            vec![Motion::Velocity, Motion::Deformation, Motion::Static],
+            "the default list"
+        );
+        assert!(parse_motions("velocity,velocity").is_err(), "repeat");
+        assert!(parse_motions("warp").is_err(), "unknown");
+    }
+
+    #[test]
+    fn the_configuration_hash_tells_configurations_apart() {
+        let a = config_hash(&TrainConfig::fast().to_toml());
+        let mut c = TrainConfig::fast();
+        c.seed += 1;
+        assert_eq!(a, config_hash(&TrainConfig::fast().to_toml()), "stable");
+        assert_ne!(a, config_hash(&c.to_toml()), "a changed seed");
+        assert_eq!(a.len(), 16, "{a}");
+    }
+}

@@ -1,0 +1,470 @@
+//! What a study measured: one record per run (`RUN/study-run.json`), the study's summary
+//! (`study.json`) with its aggregated table, and the table as Markdown (`study.md`).
+
+use super::protocol::StudyProtocol;
+use crate::model::Motion;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+
+/// Metrics of one held-out set of one run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SetMetrics {
+    /// The set's name (a row of the table).
+    pub set: String,
+    /// Number of frames evaluated.
+    pub frames: usize,
+    /// Mean PSNR (dB).
+    pub psnr: f64,
+    /// Mean SSIM.
+    pub ssim: f64,
+}
+
+/// What one (protocol, motion, seed) run produced: `RUN/study-run.json`, written when the
+/// run is finished and evaluated.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The motion.
+    pub motion: Motion,
+    /// Index of the repeat (0-based).
+    pub repeat: usize,
+    /// The training seed.
+    pub seed: u64,
+    /// The run folder, relative to the study folder.
+    pub folder: String,
+    /// Hash of the run's resolved configuration.
+    pub config_hash: String,
+    /// Iterations trained.
+    pub iterations: u64,
+    /// Training seconds (resumed runs: the sum over their sessions).
+    pub train_seconds: f64,
+    /// Gaussians at the end.
+    pub gaussians: usize,
+    /// Threads the run trained with.
+    pub threads: usize,
+    /// Metrics per held-out set.
+    pub sets: Vec<SetMetrics>,
+}
+
+/// Mean and spread of one metric over repeats.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Stat {
+    /// Mean.
+    pub mean: f64,
+    /// Sample standard deviation (0 for a single repeat).
+    pub sd: f64,
+    /// Smallest value.
+    pub min: f64,
+    /// Largest value.
+    pub max: f64,
+    /// Number of repeats.
+    pub n: usize,
+}
+
+impl Stat {
+    /// The statistics of `xs` (`None` when empty).
+    #[must_use]
+    pub fn of(xs: &[f64]) -> Option<Self> {
+        if xs.is_empty() {
+            return None;
+        }
+        #[allow(clippy::cast_precision_loss, reason = "repeat counts are small")]
+        let n = xs.len() as f64;
+        let mean = xs.iter().sum::<f64>() / n;
+        let sd = if xs.len() > 1 {
+            (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+        } else {
+            0.0
+        };
+        Some(Self {
+            mean,
+            sd,
+            min: xs.iter().copied().fold(f64::INFINITY, f64::min),
+            max: xs.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            n: xs.len(),
+        })
+    }
+}
+
+/// One motion's numbers in a row of the table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Cell {
+    /// The motion.
+    pub motion: Motion,
+    /// PSNR over repeats (dB).
+    pub psnr: Stat,
+    /// SSIM over repeats.
+    pub ssim: Stat,
+}
+
+/// A row of the table: one protocol and held-out set, a cell per motion.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The held-out set.
+    pub set: String,
+    /// Frames in the set.
+    pub frames: usize,
+    /// One cell per motion, in the study's motion order (motions without a finished run
+    /// are left out).
+    pub cells: Vec<Cell>,
+    /// Mean velocity PSNR minus mean deformation PSNR (dB), when both were run.
+    pub velocity_minus_deformation_db: Option<f64>,
+}
+
+impl Row {
+    /// The cell of `motion`, if any.
+    #[must_use]
+    pub fn cell(&self, motion: Motion) -> Option<&Cell> {
+        self.cells.iter().find(|c| c.motion == motion)
+    }
+}
+
+/// Training cost of one (protocol, motion) over repeats.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CostRow {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The motion.
+    pub motion: Motion,
+    /// Training seconds.
+    pub train_seconds: Stat,
+    /// Iterations.
+    pub iterations: u64,
+    /// Gaussians at the end.
+    pub gaussians: Stat,
+}
+
+/// Where and how the study ran.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// The exact command line.
+    pub command: String,
+    /// evogs version.
+    pub evogs_version: String,
+    /// When the summary was written (UTC, RFC 3339).
+    pub date: String,
+    /// The dataset folder.
+    pub data: String,
+    /// The preset.
+    pub preset: String,
+    /// The configuration file, if any.
+    pub config_file: Option<String>,
+    /// Hash of the base configuration (preset + file + `--iters`, before each run's protocol,
+    /// motion and seed).
+    pub config_hash: String,
+    /// Iterations per run.
+    pub iterations: u64,
+    /// Repeats per (protocol, motion).
+    pub seeds: usize,
+    /// Runs at once.
+    pub jobs: usize,
+    /// Threads in all (divided among the jobs).
+    pub threads: usize,
+    /// The machine (CPU model and logical CPUs).
+    pub machine: String,
+}
+
+/// `study.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StudySummary {
+    /// Where and how.
+    pub provenance: Provenance,
+    /// The protocols, in order.
+    pub protocols: Vec<StudyProtocol>,
+    /// The motions, in order.
+    pub motions: Vec<Motion>,
+    /// The table: one row per protocol and held-out set.
+    pub rows: Vec<Row>,
+    /// Training cost per protocol and motion.
+    pub costs: Vec<CostRow>,
+    /// Every run.
+    pub runs: Vec<RunRecord>,
+}
+
+impl StudySummary {
+    /// Aggregates run records into the table (rows in protocol order, then set order as the
+    /// runs list them).
+    #[must_use]
+    pub fn new(
+        provenance: Provenance,
+        protocols: Vec<StudyProtocol>,
+        motions: Vec<Motion>,
+        runs: Vec<RunRecord>,
+    ) -> Self {
+        let mut rows = Vec::new();
+        let mut costs = Vec::new();
+        for &p in &protocols {
+            let of_p: Vec<&RunRecord> = runs.iter().filter(|r| r.protocol == p).collect();
+            let mut set_names: Vec<(&str, usize)> = Vec::new();
+            for r in &of_p {
+                for s in &r.sets {
+                    if !set_names.iter().any(|(n, _)| *n == s.set) {
+                        set_names.push((&s.set, s.frames));
+                    }
+                }
+            }
+            for (name, frames) in set_names {
+                let cells: Vec<Cell> = motions
+                    .iter()
+                    .filter_map(|&m| {
+                        let pick = |f: fn(&SetMetrics) -> f64| -> Vec<f64> {
+                            of_p.iter()
+                                .filter(|r| r.motion == m)
+                                .filter_map(|r| r.sets.iter().find(|s| s.set == name))
+                                .map(f)
+                                .collect()
+                        };
+                        Some(Cell {
+                            motion: m,
+                            psnr: Stat::of(&pick(|s| s.psnr))?,
+                            ssim: Stat::of(&pick(|s| s.ssim))?,
+                        })
+                    })
+                    .collect();
+                let mean = |m: Motion| cells.iter().find(|c| c.motion == m).map(|c| c.psnr.mean);
+                let diff = match (mean(Motion::Velocity), mean(Motion::Deformation)) {
+                    (Some(v), Some(d)) => Some(v - d),
+                    _ => None,
+                };
+                rows.push(Row {
+                    protocol: p,
+                    set: name.to_string(),
+                    frames,
+                    cells,
+                    velocity_minus_deformation_db: diff,
+                });
+            }
+            for &m in &motions {
+                let of_pm: Vec<&&RunRecord> = of_p.iter().filter(|r| r.motion == m).collect();
+                let secs: Vec<f64> = of_pm.iter().map(|r| r.train_seconds).collect();
+                #[allow(clippy::cast_precision_loss, reason = "Gaussian counts fit f64")]
+                let gs: Vec<f64> = of_pm.iter().map(|r| r.gaussians as f64).collect();
+                if let (Some(t), Some(g)) = (Stat::of(&secs), Stat::of(&gs)) {
+                    costs.push(CostRow {
+                        protocol: p,
+                        motion: m,
+                        train_seconds: t,
+                        iterations: of_pm.iter().map(|r| r.iterations).max().unwrap_or(0),
+                        gaussians: g,
+                    });
+                }
+            }
+        }
+        Self {
+            provenance,
+            protocols,
+            motions,
+            rows,
+            costs,
+            runs,
+        }
+    }
+
+    /// The table as Markdown: a row per protocol and held-out set, PSNR / SSIM per motion
+    /// (mean ± sample standard deviation over repeats), and velocity − deformation in dB;
+    /// then the training cost.
+    #[must_use]
+    pub fn markdown(&self) -> String {
+        let p = &self.provenance;
+        let mut s = String::new();
+        let _ = writeln!(s, "# evogs study\n");
+        let _ = writeln!(s, "`{}`\n", p.command);
+        let _ = writeln!(
+            s,
+            "{} · evogs {} · data `{}` · preset `{}`{} · config {} · {} iterations per run · \
+             {} seed(s) · {} job(s) on {} thread(s) · {}\n",
+            p.date,
+            p.evogs_version,
+            p.data,
+            p.preset,
+            p.config_file
+                .as_ref()
+                .map(|f| format!(" + `{f}`"))
+                .unwrap_or_default(),
+            p.config_hash,
+            p.iterations,
+            p.seeds,
+            p.jobs,
+            p.threads,
+            p.machine
+        );
+        let _ = writeln!(
+            s,
+            "Test-view PSNR (dB) / SSIM{}.\n",
+            if p.seeds > 1 {
+                ", mean ± sample standard deviation over the seeds"
+            } else {
+                ""
+            }
+        );
+        let diff = self.has_diff();
+        s.push_str("| protocol | held-out set | frames |");
+        for m in &self.motions {
+            let _ = write!(s, " {} |", m.as_str());
+        }
+        if diff {
+            s.push_str(" velocity − deformation (dB) |");
+        }
+        s.push_str("\n|---|---|---|");
+        for _ in &self.motions {
+            s.push_str("---|");
+        }
+        if diff {
+            s.push_str("---|");
+        }
+        s.push('\n');
+        for r in &self.rows {
+            let _ = write!(s, "| {} | {} | {} |", r.protocol, r.set, r.frames);
+            for m in &self.motions {
+                match r.cell(*m) {
+                    Some(c) => {
+                        let _ = write!(s, " {} / {} |", fmt_stat(c.psnr, 2), fmt_stat(c.ssim, 3));
+                    }
+                    None => s.push_str(" – |"),
+                }
+            }
+            if diff {
+                match r.velocity_minus_deformation_db {
+                    Some(d) => {
+                        let _ = write!(s, " {d:+.2} |");
+                    }
+                    None => s.push_str(" – |"),
+                }
+            }
+            s.push('\n');
+        }
+        s.push_str("\nTraining cost per run: seconds, iterations, Gaussians at the end.\n\n");
+        s.push_str("| protocol | motion | train seconds | iterations | Gaussians |\n");
+        s.push_str("|---|---|---|---|---|\n");
+        for c in &self.costs {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} |",
+                c.protocol,
+                c.motion.as_str(),
+                fmt_stat(c.train_seconds, 1),
+                c.iterations,
+                fmt_stat(c.gaussians, 0)
+            );
+        }
+        s
+    }
+
+    fn has_diff(&self) -> bool {
+        self.motions.contains(&Motion::Velocity) && self.motions.contains(&Motion::Deformation)
+    }
+}
+
+fn fmt_stat(s: Stat, decimals: usize) -> String {
+    if s.n > 1 {
+        format!("{:.*} ± {:.*}", decimals, s.mean, decimals, s.sd)
+    } else {
+        format!("{:.*}", decimals, s.mean)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(p: StudyProtocol, m: Motion, repeat: usize, psnr: f64) -> RunRecord {
+        RunRecord {
+            protocol: p,
+            motion: m,
+            repeat,
+            seed: repeat as u64,
+            folder: String::new(),
+            config_hash: String::new(),
+            iterations: 10,
+            train_seconds: 1.0,
+            gaussians: 100,
+            threads: 1,
+            sets: vec![SetMetrics {
+                set: "test".into(),
+                frames: 4,
+                psnr,
+                ssim: 0.9,
+            }],
+        }
+    }
+
+    fn provenance(seeds: usize) -> Provenance {
+        Provenance {
+            command: "evogs study".into(),
+            evogs_version: "0".into(),
+            date: "today".into(),
+            data: "d".into(),
+            preset: "fast".into(),
+            config_file: None,
+            config_hash: "h".into(),
+            iterations: 10,
+            seeds,
+            jobs: 1,
+            threads: 1,
+            machine: "m".into(),
+        }
+    }
+
+    #[test]
+    fn statistics_of_repeats() {
+        let s = Stat::of(&[20.0, 22.0, 24.0]).expect("three");
+        assert!((s.mean - 22.0).abs() < 1e-12, "{s:?}");
+        assert!((s.sd - 2.0).abs() < 1e-12, "{s:?}");
+        assert!(s.min.to_bits() == 20.0_f64.to_bits() && s.n == 3, "{s:?}");
+        assert!(Stat::of(&[]).is_none(), "empty");
+        assert!(
+            Stat::of(&[1.0]).expect("one").sd.abs() < 1e-300,
+            "one repeat"
+        );
+    }
+
+    #[test]
+    fn the_table_has_a_row_per_set_a_cell_per_motion_and_the_difference() {
+        let p = StudyProtocol::Full;
+        let runs = vec![
+            record(p, Motion::Velocity, 0, 25.0),
+            record(p, Motion::Velocity, 1, 27.0),
+            record(p, Motion::Deformation, 0, 24.5),
+            record(p, Motion::Deformation, 1, 25.5),
+            record(p, Motion::Static, 0, 20.0),
+        ];
+        let s = StudySummary::new(
+            provenance(2),
+            vec![p],
+            vec![Motion::Velocity, Motion::Deformation, Motion::Static],
+            runs,
+        );
+        assert_eq!(s.rows.len(), 1, "{:?}", s.rows);
+        let r = &s.rows[0];
+        assert_eq!(r.cells.len(), 3, "three motions");
+        let d = r.velocity_minus_deformation_db.expect("both motions ran");
+        assert!((d - 1.0).abs() < 1e-12, "26 − 25 = {d}");
+        let md = s.markdown();
+        assert!(
+            md.contains("| full | test | 4 | 26.00 ± 1.41 / 0.900 ± 0.000 |"),
+            "{md}"
+        );
+        assert!(md.contains("+1.00 |"), "{md}");
+        assert!(md.contains("velocity − deformation"), "{md}");
+        assert_eq!(s.costs.len(), 3, "a cost row per motion");
+    }
+
+    #[test]
+    fn without_deformation_there_is_no_difference_column() {
+        let p = StudyProtocol::Sparse(4);
+        let s = StudySummary::new(
+            provenance(1),
+            vec![p],
+            vec![Motion::Velocity],
+            vec![record(p, Motion::Velocity, 0, 25.0)],
+        );
+        assert!(s.rows[0].velocity_minus_deformation_db.is_none(), "no pair");
+        assert!(
+            !s.markdown().contains("velocity − deformation"),
+            "no column"
+        );
+    }
+}

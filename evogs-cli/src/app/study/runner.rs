@@ -1,0 +1,183 @@
+//! One run of a study: train (or resume) in its own folder with its share of the threads,
+//! evaluate its held-out sets, and write `RUN/study-run.json`.
+
+use super::protocol::{HeldOutSet, StudyProtocol};
+use super::report::{RunRecord, SetMetrics};
+use crate::app::Reporter;
+use crate::app::paths::RunFolder;
+use crate::app::train::{CommandError, TrainArgs, train};
+use crate::data::Dataset;
+use crate::eval::evaluate_views;
+use crate::model::Motion;
+use crate::run::checkpoint;
+use evogs_math::Par;
+use std::path::{Path, PathBuf};
+
+/// The record a finished run leaves in its folder.
+pub(super) const RECORD_FILE: &str = "study-run.json";
+
+/// What has to happen to a planned run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum RunState {
+    /// Finished and evaluated earlier: its record is reused.
+    Done,
+    /// Interrupted: continue from its checkpoint.
+    Resume,
+    /// Not started (or `--force`): train from scratch.
+    Fresh,
+}
+
+/// A run of the study's plan.
+#[derive(Clone, Debug)]
+pub(super) struct PlannedRun {
+    /// The protocol.
+    pub(super) protocol: StudyProtocol,
+    /// The motion.
+    pub(super) motion: Motion,
+    /// Index of the repeat.
+    pub(super) repeat: usize,
+    /// The training seed.
+    pub(super) seed: u64,
+    /// Folder relative to the study folder.
+    pub(super) folder: String,
+    /// The arguments `evogs train` gets (`resume` set from the state).
+    pub(super) args: TrainArgs,
+    /// Hash of the resolved configuration.
+    pub(super) config_hash: String,
+    /// Planned iterations.
+    pub(super) iterations: u64,
+    /// What has to happen.
+    pub(super) state: RunState,
+}
+
+impl PlannedRun {
+    /// `protocol / motion / seed k`, for progress lines.
+    pub(super) fn label(&self) -> String {
+        format!(
+            "{} / {} / seed {}",
+            self.protocol,
+            self.motion.as_str(),
+            self.repeat
+        )
+    }
+
+    /// The record file in the run folder.
+    pub(super) fn record_path(&self) -> PathBuf {
+        self.args.out.join(RECORD_FILE)
+    }
+}
+
+/// Reads a run record.
+///
+/// # Errors
+/// An unreadable or malformed file (named).
+pub(super) fn read_record(path: &Path) -> Result<RunRecord, CommandError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CommandError(format!("{}: cannot read: {e}", path.display())))?;
+    serde_json::from_str(&text).map_err(|e| {
+        CommandError(format!(
+            "{}: not a study run record ({e}); delete it or pass --force",
+            path.display()
+        ))
+    })
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so a
+/// reader never sees half a file.
+///
+/// # Errors
+/// I/O failures (the temporary file is removed).
+pub(super) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CommandError> {
+    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
+    let res = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    res.map_err(|e| {
+        std::fs::remove_file(&tmp).ok();
+        CommandError(format!("{}: cannot write: {e}", path.display()))
+    })
+}
+
+/// Trains (or resumes) the run, evaluates its held-out sets and writes its record.
+///
+/// `threads` is the run's share of the machine: with the `rayon` feature the run's kernels
+/// use a pool of that many threads (results do not depend on it: kernels reduce in fixed
+/// chunks).
+///
+/// # Errors
+/// Training, checkpoint or evaluation failures, naming the run's folder.
+pub(super) fn execute(
+    run: &PlannedRun,
+    ds: &Dataset,
+    sets: &[HeldOutSet],
+    threads: usize,
+    rep: &mut (dyn Reporter + Send),
+) -> Result<RunRecord, CommandError> {
+    #[cfg(feature = "rayon")]
+    {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| CommandError(format!("cannot start {threads} threads: {e}")))?;
+        pool.install(|| execute_here(run, ds, sets, threads, rep))
+    }
+    #[cfg(not(feature = "rayon"))]
+    {
+        let _ = threads;
+        execute_here(run, ds, sets, 1, rep)
+    }
+}
+
+fn execute_here(
+    run: &PlannedRun,
+    ds: &Dataset,
+    sets: &[HeldOutSet],
+    threads: usize,
+    rep: &mut dyn Reporter,
+) -> Result<RunRecord, CommandError> {
+    let mut args = run.args.clone();
+    args.resume = run.state == RunState::Resume;
+    let at = |e: CommandError| CommandError(format!("{} ({}): {e}", run.folder, run.label()));
+    let outcome = train(&args, rep).map_err(at)?;
+    let folder = RunFolder::new(&args.out);
+    let loaded = checkpoint::load_model(&folder.checkpoint())
+        .map_err(|e| at(CommandError::from_display(e)))?;
+    let mut model = loaded.model;
+    model.field.set_par(Par::best());
+    let mut metrics = Vec::with_capacity(sets.len());
+    for set in sets {
+        let views = set.views(ds);
+        rep.start(&format!("evaluate {}", set.name), views.len() as u64);
+        let m = evaluate_views(
+            &mut model,
+            &views,
+            set.split,
+            loaded.cfg.data.background,
+            Par::best(),
+            |d, _| rep.progress(d as u64, ""),
+        )
+        .map_err(|e| at(CommandError(e)))?;
+        rep.finish();
+        metrics.push(SetMetrics {
+            set: set.name.clone(),
+            frames: m.frames.len(),
+            psnr: m.psnr,
+            ssim: m.ssim,
+        });
+    }
+    let record = RunRecord {
+        protocol: run.protocol,
+        motion: run.motion,
+        repeat: run.repeat,
+        seed: run.seed,
+        folder: run.folder.clone(),
+        config_hash: run.config_hash.clone(),
+        iterations: outcome.iterations,
+        train_seconds: outcome.seconds,
+        gaussians: outcome.gaussians,
+        threads,
+        sets: metrics,
+    };
+    let json = serde_json::to_string_pretty(&record)
+        .map_err(|e| at(CommandError(format!("cannot encode the run record: {e}"))))?;
+    write_atomic(&run.record_path(), json.as_bytes()).map_err(at)?;
+    Ok(record)
+}
