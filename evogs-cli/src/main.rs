@@ -60,7 +60,7 @@ enum Cmd {
         /// Total iterations (warm-up included). A new run's warm-up and temporal curriculum
         /// are shortened to fit (a note says so); to stop early with the planned schedule,
         /// set schedule.iterations in a --config file. With --resume: extends the run.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
         iters: Option<u64>,
         /// Random seed.
         #[arg(long)]
@@ -94,15 +94,15 @@ enum Cmd {
         #[arg(long)]
         config: Option<PathBuf>,
         /// Iterations per run (default: the preset's; shortens warm-up and curriculum to fit).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
         iters: Option<u64>,
         /// Repeats per protocol and motion, with seeds seed, seed+1, ...; the table reports
         /// mean and standard deviation.
-        #[arg(long, default_value_t = 1)]
-        seeds: usize,
+        #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = positive_count)]
+        seeds: u64,
         /// Runs at once; the threads are divided among them.
-        #[arg(long, default_value_t = 1)]
-        jobs: usize,
+        #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = positive_count)]
+        jobs: u64,
         /// Retrain every run, finished or interrupted.
         #[arg(long)]
         force: bool,
@@ -184,6 +184,15 @@ enum Cmd {
         #[arg(long)]
         out: PathBuf,
     },
+}
+
+/// A whole number of at least 1 (iterations, seeds, jobs), with a message that says so for
+/// `-5`, `0` or `1.5` instead of clap's "unexpected argument".
+fn positive_count(s: &str) -> Result<u64, String> {
+    match s.trim().parse::<u64>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("`{s}` is not a whole number of at least 1")),
+    }
 }
 
 /// The frame options `render` and `inject` share.
@@ -340,8 +349,8 @@ fn main() -> Result<()> {
                 preset,
                 config,
                 iters,
-                seeds,
-                jobs,
+                seeds: usize::try_from(seeds)?,
+                jobs: usize::try_from(jobs)?,
                 force,
                 command: std::env::args().collect::<Vec<_>>().join(" "),
             };
@@ -532,6 +541,33 @@ mod tests {
         assert_eq!(frames.camera, CameraPath::Orbit);
         assert!(!frames.gif);
         assert_eq!(frames.data.as_deref(), Some(std::path::Path::new("d")));
+    }
+
+    #[test]
+    fn counts_must_be_whole_and_positive() {
+        for bad in ["-5", "0", "1.5", "x"] {
+            let e = Cli::try_parse_from(["evogs", "train", "--iters", bad])
+                .expect_err(bad)
+                .to_string();
+            assert!(
+                e.contains("whole number of at least 1"),
+                "--iters {bad}: {e}"
+            );
+            let e = Cli::try_parse_from(["evogs", "study", "--jobs", bad])
+                .expect_err(bad)
+                .to_string();
+            assert!(
+                e.contains("whole number of at least 1"),
+                "--jobs {bad}: {e}"
+            );
+        }
+        let Cmd::Study {
+            iters, seeds, jobs, ..
+        } = parse("study --iters 30 --seeds 3 --jobs 2")
+        else {
+            panic!("not study")
+        };
+        assert_eq!((iters, seeds, jobs), (Some(30), 3, 2), "parsed");
     }
 
     #[test]

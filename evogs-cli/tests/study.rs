@@ -200,7 +200,11 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
     .expect("force");
     assert_eq!((forced.trained, forced.reused), (2, 0), "retrained");
     for r in &forced.summary.runs {
-        let first = s.runs.iter().find(|f| f.folder == r.folder).expect("same run");
+        let first = s
+            .runs
+            .iter()
+            .find(|f| f.folder == r.folder)
+            .expect("same run");
         assert_eq!(r.sets, first.sets, "{}: the same metrics", r.folder);
         assert_eq!(r.gaussians, first.gaussians, "{}: the same model", r.folder);
     }

@@ -148,6 +148,43 @@ fn resume_continues_bit_for_bit() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// Non-finite numbers never reach a checkpoint, and a checkpoint holding one is refused
+/// on reading (eval, export, render and resume all read through `load_model`).
+#[test]
+fn checkpoints_refuse_non_finite_values_both_ways() {
+    let mut c = tiny_config();
+    c.schedule.iterations = 3;
+    c.schedule.warmup_iters = 3;
+    c.schedule.curriculum_iters = 0;
+    let mut t = trainer(c);
+    t.step().expect("step");
+    let dir = std::env::temp_dir().join(format!("evogs-nan-ckpt-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let ck = dir.join("checkpoint.bin");
+    checkpoint::save(&t, &ck).expect("a finite model saves");
+    let good = std::fs::read(&ck).expect("saved");
+    t.model.canonical.means[7] = evogs_math::Vec3::new(f32::NAN, 0.0, 0.0);
+    let e = checkpoint::save(&t, &ck).expect_err("NaN mean").to_string();
+    assert!(
+        e.contains("canonical.means") && e.contains("not finite"),
+        "{e}"
+    );
+    assert_eq!(
+        std::fs::read(&ck).expect("kept"),
+        good,
+        "the previous checkpoint is kept"
+    );
+    // A NaN written by something else (a corrupt file) is refused when read.
+    let mut ar = evogs_cli::run::archive::Archive::read(&ck).expect("archive");
+    let mut means = ar.f32("canonical.means").expect("means").to_vec();
+    means[4] = f32::INFINITY;
+    ar.put_f32("canonical.means", &means);
+    ar.write(&ck).expect("write");
+    let e = checkpoint::load_model(&ck).expect_err("inf").to_string();
+    assert!(e.contains("not finite"), "{e}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
 /// The densification window is `from_iter ≤ it < until_iter` (3DGS): no densification and
 /// no opacity reset at `until_iter` itself, which is often the last iteration (a reset there
 /// would leave every Gaussian at opacity 0.01 in the saved model).

@@ -214,16 +214,18 @@ impl TrainConfig {
 
     /// A stored run configuration (`RUN/config.toml`, a checkpoint's copy). Read over `fast`
     /// with the temporal curriculum off, so runs written before the curriculum existed keep
-    /// training as they did when resumed.
+    /// training as they did when resumed; validated like any other configuration.
     ///
     /// # Errors
-    /// As [`merge_toml`](Self::merge_toml).
+    /// As [`merge_toml`](Self::merge_toml) and [`validate`](Self::validate).
     pub fn from_run_toml(text: &str) -> Result<Self, String> {
         let mut base = Self::fast();
         base.schedule.warmup_time_window = 1.0;
         base.schedule.curriculum_iters = 0;
         base.schedule.curriculum_focus = 0.0;
-        base.merge_toml(text)
+        let cfg = base.merge_toml(text)?;
+        cfg.validate()?;
+        Ok(cfg)
     }
 
     /// The configuration as TOML.
@@ -238,6 +240,7 @@ impl TrainConfig {
     /// A message naming the offending field.
     pub fn validate(&self) -> Result<(), String> {
         let chk = |ok: bool, msg: &str| if ok { Ok(()) } else { Err(msg.to_string()) };
+        self.validate_numbers()?;
         chk(
             self.data.downscale >= 1,
             "data.downscale must be at least 1",
@@ -303,6 +306,96 @@ impl TrainConfig {
         )?;
         self.spin_search.validate()?;
         self.orbit_search.validate()
+    }
+
+    /// Every real-valued setting is finite and in its range: rates and loss weights are
+    /// non-negative, probabilities and colours lie in [0, 1], sizes are positive.
+    fn validate_numbers(&self) -> Result<(), String> {
+        let nonneg = |name: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be a finite number >= 0 (got {v})"))
+            }
+        };
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be a finite number > 0 (got {v})"))
+            }
+        };
+        for (i, &c) in self.data.background.iter().enumerate() {
+            if !(0.0..=1.0).contains(&c) {
+                return Err(format!("data.background[{i}] must lie in [0, 1] (got {c})"));
+            }
+        }
+        if matches!(self.data.protocol, Protocol::Future | Protocol::Backward)
+            && !(self.data.split_time > 0.0 && self.data.split_time < 1.0)
+        {
+            return Err(format!(
+                "data.split_time must lie in (0, 1) for the {} protocol (got {}): training                  times are in [0, 1]",
+                if self.data.protocol == Protocol::Future {
+                    "future"
+                } else {
+                    "backward"
+                },
+                self.data.split_time
+            ));
+        }
+        positive("init.random_extent", self.init.random_extent)?;
+        nonneg("init.aabb_margin", self.init.aabb_margin)?;
+        if self.init.random_points == 0 {
+            return Err(
+                "init.random_points must be at least 1 (the initial cloud when the dataset has                  no points3d.ply or init.use_points is false)"
+                    .into(),
+            );
+        }
+        for (i, &v) in self.field.output_scales.iter().enumerate() {
+            positive(&format!("field.output_scales[{i}]"), v)?;
+        }
+        let l = &self.loss;
+        for (name, v) in [
+            ("loss.plane_tv", l.plane_tv),
+            ("loss.time_smoothness", l.time_smoothness),
+            ("loss.l1_time", l.l1_time),
+            ("loss.lambda_coherence", l.lambda_coherence),
+            ("loss.lambda_anchor", l.lambda_anchor),
+        ] {
+            nonneg(name, v)?;
+        }
+        let o = &self.optim;
+        for (name, v) in [
+            ("optim.position_lr_init", o.position_lr_init),
+            ("optim.position_lr_final", o.position_lr_final),
+            ("optim.deformation_lr_init", o.deformation_lr_init),
+            ("optim.deformation_lr_final", o.deformation_lr_final),
+            ("optim.grid_lr_init", o.grid_lr_init),
+            ("optim.grid_lr_final", o.grid_lr_final),
+            ("optim.feature_lr", o.feature_lr),
+            ("optim.opacity_lr", o.opacity_lr),
+            ("optim.scaling_lr", o.scaling_lr),
+            ("optim.rotation_lr", o.rotation_lr),
+        ] {
+            nonneg(name, v)?;
+        }
+        let d = &self.densify;
+        positive("densify.grad_threshold", d.grad_threshold)?;
+        positive("densify.percent_dense", d.percent_dense)?;
+        nonneg("densify.max_screen_size", d.max_screen_size)?;
+        if !(0.0..1.0).contains(&d.min_opacity) {
+            return Err(format!(
+                "densify.min_opacity must lie in [0, 1) (got {}): opacities are below 1, so                  a threshold of 1 or more prunes every Gaussian",
+                d.min_opacity
+            ));
+        }
+        if d.max_gaussians == 0 {
+            return Err("densify.max_gaussians must be at least 1".into());
+        }
+        if self.schedule.iterations == 0 {
+            return Err("schedule.iterations must be at least 1".into());
+        }
+        Ok(())
     }
 }
 
@@ -394,6 +487,62 @@ mod tests {
                 .expect("parses");
             assert!(c.validate().is_err(), "views_per_step = {bad} rejected");
         }
+    }
+
+    #[test]
+    fn non_finite_negative_and_out_of_range_values_are_rejected_by_name() {
+        let c = TrainConfig::fast();
+        for (overlay, field) in [
+            ("[optim]\nposition_lr_init = nan", "optim.position_lr_init"),
+            ("[optim]\nfeature_lr = nan", "optim.feature_lr"),
+            ("[optim]\nopacity_lr = inf", "optim.opacity_lr"),
+            ("[optim]\nscaling_lr = -0.001", "optim.scaling_lr"),
+            ("[optim]\ngrid_lr_final = -inf", "optim.grid_lr_final"),
+            ("[loss]\nlambda_coherence = nan", "loss.lambda_coherence"),
+            ("[loss]\nplane_tv = -1.0", "loss.plane_tv"),
+            ("[init]\nrandom_extent = -1.0", "init.random_extent"),
+            ("[init]\nrandom_points = 0", "init.random_points"),
+            ("[init]\naabb_margin = nan", "init.aabb_margin"),
+            ("[densify]\ngrad_threshold = -1.0", "densify.grad_threshold"),
+            ("[densify]\nmin_opacity = 1.5", "densify.min_opacity"),
+            ("[densify]\nmin_opacity = nan", "densify.min_opacity"),
+            ("[densify]\nmax_gaussians = 0", "densify.max_gaussians"),
+            ("[data]\nbackground = [1.0, nan, 1.0]", "data.background[1]"),
+            ("[data]\nbackground = [1.0, 1.0, 2.0]", "data.background[2]"),
+            (
+                "[data]\nprotocol = \"future\"\nsplit_time = 2.0",
+                "data.split_time",
+            ),
+            (
+                "[data]\nprotocol = \"backward\"\nsplit_time = 0.0",
+                "data.split_time",
+            ),
+            (
+                "[field]\noutput_scales = [10.0, nan, 1.0]",
+                "field.output_scales[1]",
+            ),
+            ("[dynamics]\nstep_fraction = nan", "dynamics.step_fraction"),
+            (
+                "[schedule]\niterations = 0\nwarmup_iters = 0\ncurriculum_iters = 0",
+                "schedule.iterations",
+            ),
+        ] {
+            let bad = c
+                .merge_toml(overlay)
+                .unwrap_or_else(|e| panic!("`{overlay}` parses: {e}"));
+            let e = bad.validate().expect_err(overlay);
+            assert!(e.contains(field), "`{overlay}`: {e}");
+            // A stored run configuration goes through the same check.
+            let e = TrainConfig::from_run_toml(&bad.to_toml()).expect_err(overlay);
+            assert!(e.contains(field), "`{overlay}` as a run's config.toml: {e}");
+        }
+        let ok = c
+            .merge_toml("[data]\nprotocol = \"full\"\nsplit_time = 2.0")
+            .expect("parses");
+        assert!(
+            ok.validate().is_ok(),
+            "split_time is read only by future/backward"
+        );
     }
 
     #[test]

@@ -66,6 +66,15 @@ impl Archive {
             .find(|(n, _)| n == name)
             .map(|(_, d)| d.as_slice())
     }
+    /// The first non-finite `f32` value: its array's name and index.
+    #[must_use]
+    pub fn first_non_finite(&self) -> Option<(&str, usize)> {
+        self.f32s.iter().find_map(|(name, d)| {
+            d.iter()
+                .position(|v| !v.is_finite())
+                .map(|i| (name.as_str(), i))
+        })
+    }
     /// A `u64` array by name.
     #[must_use]
     pub fn u64(&self, name: &str) -> Option<&[u64]> {

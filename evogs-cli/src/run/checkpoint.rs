@@ -137,6 +137,16 @@ pub fn save(t: &Trainer, path: &Path) -> Result<(), CheckpointError> {
             .flat_map(|(c, r)| [c[0], c[1], c[2], *r].map(f64::to_bits))
             .collect::<Vec<_>>(),
     );
+    if let Some((name, i)) = ar.first_non_finite() {
+        return Err(CheckpointError::Invalid {
+            path: path.display().to_string(),
+            msg: format!(
+                "not written: `{name}`[{i}] is not finite at iteration {} (the previous \
+                 checkpoint is kept)",
+                t.iteration
+            ),
+        });
+    }
     ar.write(path)?;
     Ok(())
 }
@@ -163,6 +173,11 @@ pub fn load_model(path: &Path) -> Result<Loaded, CheckpointError> {
         path: p.clone(),
         msg,
     };
+    if let Some((name, i)) = ar.first_non_finite() {
+        return Err(bad(format!(
+            "`{name}`[{i}] is not finite: the checkpoint is corrupt"
+        )));
+    }
     let meta = &ar.meta;
     if meta["format"] != "evogs checkpoint" || meta["version"].as_u64() != Some(VERSION) {
         return Err(bad("not an evogs checkpoint of version 1".into()));
