@@ -1,12 +1,15 @@
 //! Times a trained model cannot be evaluated at in bounded work (non-finite, or far outside
 //! its trained range) are refused with a message by export, render and inject, before any
-//! output is written; times within the bound (negative and beyond 1 too) work.
+//! output is written; times within the bound (negative and beyond 1 too) work. `eval` refuses
+//! a time range without frames and keeps a restricted evaluation apart from the whole one.
 
 use evogs_cli::app::Silent;
+use evogs_cli::app::evaluate::{evaluate_run, parse_range};
 use evogs_cli::app::export::export;
 use evogs_cli::app::paths::shipped_scene;
 use evogs_cli::app::render::{CameraPath, RenderArgs, render_sequence};
 use evogs_cli::app::train::{TrainArgs, train};
+use evogs_cli::data::SplitName;
 
 const TINY: &str = r"
 [data]
@@ -88,6 +91,31 @@ fn export_and_render_refuse_times_out_of_reach() {
         render((-0.25, 1.25, 2)).expect("within reach").frames.len(),
         2,
         "frames"
+    );
+    // eval: a range that selects nothing is an error, and a restricted evaluation goes to a
+    // file of its own that records the range, next to the whole split's.
+    for bad in ["nan:1", "0:inf", "1:0", "0.5"] {
+        assert!(parse_range(bad).is_err(), "`{bad}` refused");
+    }
+    let (whole, whole_path) =
+        evaluate_run(&run, SplitName::Test, None, None, &mut Silent).expect("whole split");
+    let before = std::fs::read(&whole_path).expect("metrics-test.json");
+    let e = evaluate_run(&run, SplitName::Test, Some((5.0, 6.0)), None, &mut Silent)
+        .expect_err("no frame in 5:6")
+        .to_string();
+    assert!(e.contains("selects none of the 10 `test` frames"), "{e}");
+    let (part, part_path) =
+        evaluate_run(&run, SplitName::Test, Some((0.5, 1.0)), None, &mut Silent).expect("part");
+    assert!(
+        part.frames.len() < whole.frames.len() && !part.frames.is_empty(),
+        "a subset"
+    );
+    assert_eq!(part.time_range, Some([0.5, 1.0]), "the range is recorded");
+    assert_ne!(part_path, whole_path, "a file of its own");
+    assert_eq!(
+        std::fs::read(&whole_path).expect("kept"),
+        before,
+        "the whole split's file is kept"
     );
     std::fs::remove_dir_all(&dir).ok();
 }
