@@ -55,20 +55,20 @@ pub fn evaluate_run(
             split.as_str()
         )));
     }
-    if let Some((a, b)) = range {
-        if !views.iter().any(|v| v.time >= a && v.time <= b) {
-            let (lo, hi) = views
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(x, y), v| {
-                    (x.min(v.time), y.max(v.time))
-                });
-            return Err(CommandError(format!(
-                "--time-range {a}:{b} selects none of the {} `{}` frames (their times lie in \
-                 [{lo}, {hi}])",
-                views.len(),
-                split.as_str()
-            )));
-        }
+    if let Some((a, b)) = range
+        && !views.iter().any(|v| v.time >= a && v.time <= b)
+    {
+        let (lo, hi) = views
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(x, y), v| {
+                (x.min(v.time), y.max(v.time))
+            });
+        return Err(CommandError(format!(
+            "--time-range {a}:{b} selects none of the {} `{}` frames (their times lie in \
+             [{lo}, {hi}])",
+            views.len(),
+            split.as_str()
+        )));
     }
     let mut model = l.model;
     model.field.set_par(Par::best());
