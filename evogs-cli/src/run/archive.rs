@@ -6,7 +6,7 @@
 //! arrays' little-endian bytes in header order.
 //!
 //! `meta_f64_bits` holds the bit pattern of every floating-point number of `meta`, in the
-//! order of a depth-first walk, and reading puts them back: JSON text parsed by serde_json's
+//! order of a depth-first walk, and reading puts them back: JSON text parsed by `serde_json`'s
 //! default (fast, not correctly rounded) parser can come back an ulp off, which would make a
 //! resumed run drift from an uninterrupted one.
 
@@ -264,7 +264,7 @@ mod tests {
         std::fs::remove_dir_all(dir).ok();
     }
 
-    /// Metadata floats come back bit for bit, including values that serde_json's default
+    /// Metadata floats come back bit for bit, including values that `serde_json`'s default
     /// parser reads an ulp off (the test finds such values among random ones and checks that
     /// some are there, so it would fail if the bit patterns were not used).
     #[test]
