@@ -330,15 +330,11 @@ mod tests {
     }
 
     type Vjp = fn(Vec6<f64>, Vec6<f64>, Vec6<f64>) -> (Vec6<f64>, Vec6<f64>);
+    type DualMap = fn(Vec6<Dual<f64>>, Vec6<Dual<f64>>) -> Vec6<Dual<f64>>;
 
     /// A VJP against central differences (both arguments) and against the dual-number JVP
     /// of the same generic function (dot-product test).
-    fn check_vjp(
-        what: &str,
-        f: fn(Vec6<f64>, Vec6<f64>) -> Vec6<f64>,
-        fd: fn(Vec6<Dual<f64>>, Vec6<Dual<f64>>) -> Vec6<Dual<f64>>,
-        vjp: Vjp,
-    ) {
+    fn check_vjp(what: &str, f: fn(Vec6<f64>, Vec6<f64>) -> Vec6<f64>, fd: DualMap, vjp: Vjp) {
         let v = Vec6::from_array([0.3, -0.2, 0.9, 1.1, -0.4, 0.25]);
         let g = Vec6::from_array([-0.6, 0.5, 0.1, 0.35, 0.8, -0.9]);
         for xi in samples() {
