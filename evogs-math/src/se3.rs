@@ -214,6 +214,13 @@ impl<T: Real> Se3<T> {
             r.act(v.tail - self.translation.cross(v.head)),
         )
     }
+    /// The same transform with the quaternion rescaled to unit norm (removes the rounding
+    /// drift of long products, as the ODE steppers do after every step).
+    #[inline]
+    #[must_use]
+    pub fn renormalize(self) -> Self {
+        Self::from_quat_translation(self.quat(), self.translation)
+    }
     /// Converts the scalar type (through `f64`; the quaternion is renormalised).
     #[must_use]
     pub fn cast<U: Real>(self) -> Se3<U> {
