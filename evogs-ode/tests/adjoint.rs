@@ -83,67 +83,67 @@ fn grids() -> [(&'static str, TimeGrid<f64>); 3] {
     ]
 }
 
-#[test]
-fn discrete_adjoint_matches_central_differences_with_so3_blocks() {
-    let proto = CoupledField::<f64>::random(2, 7);
-    let layout = proto.layout();
-    let y0 = random_state(&layout, 3);
-    let loss = Loss::new(layout, 5);
+/// The discrete adjoint of `make(theta)` from `y0` against central differences, for every
+/// method on every grid; returns the worst absolute error.
+fn check_against_central_differences<F: VectorField<f64>>(
+    what: &str,
+    theta: &[f64],
+    make: impl Fn(&[f64]) -> F,
+    y0: &[f64],
+    loss_seed: u64,
+    policy: Checkpointing,
+) -> f64 {
+    let layout = make(theta).layout();
+    let loss = Loss::new(layout, loss_seed);
     let mut worst: f64 = 0.0;
     for m in Method::ALL {
-        for (what, grid) in grids() {
-            let mut field = proto.clone();
-            let analytic =
-                adjoint_gradient(&mut field, m, &grid, &y0, &loss, Checkpointing::StoreAll);
-            let numeric = numeric_gradient(
-                |th| CoupledField {
-                    theta: th.to_vec(),
-                    count: 2,
-                },
-                &proto.theta,
-                &layout,
-                m,
-                &grid,
-                &y0,
-                &loss,
-            );
+        for (grid_name, grid) in grids() {
+            let mut field = make(theta);
+            let analytic = adjoint_gradient(&mut field, m, &grid, y0, &loss, policy);
+            let numeric = numeric_gradient(&make, theta, &layout, m, &grid, y0, &loss);
             let rep = GradCheck::new(1e-9, 1e-7).check(&analytic, &numeric);
-            rep.assert_passed(&format!("coupled SO(3) field, {m}, {what}"));
+            rep.assert_passed(&format!("{what}, {m}, {grid_name}"));
             worst = worst.max(rep.max_abs_err);
         }
     }
+    worst
+}
+
+#[test]
+fn discrete_adjoint_matches_central_differences_with_so3_blocks() {
+    let proto = CoupledField::<f64>::random(2, 7);
+    let make = |th: &[f64]| CoupledField {
+        theta: th.to_vec(),
+        count: 2,
+    };
+    let y0 = random_state(&proto.layout(), 3);
+    let worst = check_against_central_differences(
+        "coupled SO(3) field",
+        &proto.theta,
+        make,
+        &y0,
+        5,
+        Checkpointing::StoreAll,
+    );
     println!("coupled SO(3) field: worst |analytic − central difference| = {worst:.2e}");
 }
 
 #[test]
 fn discrete_adjoint_matches_central_differences_with_se3_blocks() {
     let proto = CoupledSe3Field::<f64>::random(2, 17);
-    let layout = proto.layout();
-    let y0 = random_state(&layout, 13);
-    let loss = Loss::new(layout, 15);
-    let mut worst: f64 = 0.0;
-    for m in Method::ALL {
-        for (what, grid) in grids() {
-            let mut field = proto.clone();
-            let analytic =
-                adjoint_gradient(&mut field, m, &grid, &y0, &loss, Checkpointing::StoreAll);
-            let numeric = numeric_gradient(
-                |th| CoupledSe3Field {
-                    theta: th.to_vec(),
-                    count: 2,
-                },
-                &proto.theta,
-                &layout,
-                m,
-                &grid,
-                &y0,
-                &loss,
-            );
-            let rep = GradCheck::new(1e-9, 1e-7).check(&analytic, &numeric);
-            rep.assert_passed(&format!("coupled SE(3) field, {m}, {what}"));
-            worst = worst.max(rep.max_abs_err);
-        }
-    }
+    let make = |th: &[f64]| CoupledSe3Field {
+        theta: th.to_vec(),
+        count: 2,
+    };
+    let y0 = random_state(&proto.layout(), 13);
+    let worst = check_against_central_differences(
+        "coupled SE(3) field",
+        &proto.theta,
+        make,
+        &y0,
+        15,
+        Checkpointing::StoreAll,
+    );
     println!("coupled SE(3) field: worst |analytic − central difference| = {worst:.2e}");
 }
 
@@ -152,26 +152,22 @@ fn discrete_adjoint_matches_central_differences_on_the_propelled_top() {
     let top = PropelledTop::<f64>::default();
     let mut y0 = [0.0; 10];
     evogs_ode::problems::ExactProblem::initial_state(&top, &mut y0);
-    let layout = top.layout();
-    let loss = Loss::new(layout, 12);
-    let theta = [1.0, 1.7, 2.4, 0.6]; // an asymmetric body
-    for m in Method::ALL {
-        for (what, grid) in grids() {
-            let make = |th: &[f64]| {
-                let mut t = top;
-                t.top.body.inertia = Vec3::from_slice(th);
-                t.speed = th[3];
-                t
-            };
-            let mut field = make(&theta);
-            let analytic =
-                adjoint_gradient(&mut field, m, &grid, &y0, &loss, Checkpointing::sqrt(7));
-            let numeric = numeric_gradient(make, &theta, &layout, m, &grid, &y0, &loss);
-            GradCheck::new(1e-9, 1e-7)
-                .check(&analytic, &numeric)
-                .assert_passed(&format!("propelled top, {m}, {what}"));
-        }
-    }
+    let make = |th: &[f64]| {
+        let mut t = top;
+        t.top.body.inertia = Vec3::from_slice(th);
+        t.speed = th[3];
+        t
+    };
+    // An asymmetric body.
+    let theta = [1.0, 1.7, 2.4, 0.6];
+    check_against_central_differences(
+        "propelled top",
+        &theta,
+        make,
+        &y0,
+        12,
+        Checkpointing::sqrt(7),
+    );
 }
 
 #[test]
@@ -179,25 +175,14 @@ fn discrete_adjoint_matches_central_differences_on_the_rigid_body() {
     let top = SymmetricTop::<f64>::default();
     let mut y0 = [0.0; 7];
     evogs_ode::problems::ExactProblem::initial_state(&top, &mut y0);
-    let layout = top.layout();
-    let loss = Loss::new(layout, 11);
-    let theta = [1.0, 1.7, 2.4]; // an asymmetric body
-    for m in Method::ALL {
-        for (what, grid) in grids() {
-            let make = |th: &[f64]| {
-                let mut t = top;
-                t.body.inertia = Vec3::from_slice(th);
-                t
-            };
-            let mut field = make(&theta);
-            let analytic =
-                adjoint_gradient(&mut field, m, &grid, &y0, &loss, Checkpointing::sqrt(7));
-            let numeric = numeric_gradient(make, &theta, &layout, m, &grid, &y0, &loss);
-            GradCheck::new(1e-9, 1e-7)
-                .check(&analytic, &numeric)
-                .assert_passed(&format!("rigid body, {m}, {what}"));
-        }
-    }
+    let make = |th: &[f64]| {
+        let mut t = top;
+        t.body.inertia = Vec3::from_slice(th);
+        t
+    };
+    // An asymmetric body.
+    let theta = [1.0, 1.7, 2.4];
+    check_against_central_differences("rigid body", &theta, make, &y0, 11, Checkpointing::sqrt(7));
 }
 
 #[test]

@@ -25,6 +25,22 @@ pub(crate) struct CoupledField<T> {
 
 pub(crate) const N_THETA: usize = 44;
 
+/// Seeded parameters of the coupled test fields: entries from 42 on (decay rates) in
+/// [0.2, 1), the rest in [−0.6, 0.6).
+fn random_theta<T: Real>(n: usize, seed: u64) -> Vec<T> {
+    let mut rng = SplitMix64::new(seed);
+    (0..n)
+        .map(|i| {
+            let v = if i >= 42 {
+                rng.uniform(0.2, 1.0)
+            } else {
+                rng.uniform(-0.6, 0.6)
+            };
+            T::from_f64(v)
+        })
+        .collect()
+}
+
 fn mat<T: Real>(th: &[T], k: usize) -> evogs_math::Mat3<T> {
     let m = &th[9 * k..9 * k + 9];
     evogs_math::Mat3::from_rows([[m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]])
@@ -32,19 +48,10 @@ fn mat<T: Real>(th: &[T], k: usize) -> evogs_math::Mat3<T> {
 
 impl<T: Real> CoupledField<T> {
     pub(crate) fn random(count: usize, seed: u64) -> Self {
-        let mut rng = SplitMix64::new(seed);
-        let theta = (0..N_THETA)
-            .map(|i| {
-                // Decay rates k positive, the rest of either sign.
-                let v = if i >= 42 {
-                    rng.uniform(0.2, 1.0)
-                } else {
-                    rng.uniform(-0.6, 0.6)
-                };
-                T::from_f64(v)
-            })
-            .collect();
-        Self { theta, count }
+        Self {
+            theta: random_theta(N_THETA, seed),
+            count,
+        }
     }
 
     pub(crate) fn layout_for(count: usize) -> StateLayout {
@@ -154,18 +161,10 @@ pub(crate) const N_THETA_SE3: usize = 45;
 
 impl<T: Real> CoupledSe3Field<T> {
     pub(crate) fn random(count: usize, seed: u64) -> Self {
-        let mut rng = SplitMix64::new(seed);
-        let theta = (0..N_THETA_SE3)
-            .map(|i| {
-                let v = if i >= 42 {
-                    rng.uniform(0.2, 1.0)
-                } else {
-                    rng.uniform(-0.6, 0.6)
-                };
-                T::from_f64(v)
-            })
-            .collect();
-        Self { theta, count }
+        Self {
+            theta: random_theta(N_THETA_SE3, seed),
+            count,
+        }
     }
 
     pub(crate) fn layout_for(count: usize) -> StateLayout {
