@@ -169,7 +169,8 @@ enum Cmd {
         #[arg(long)]
         stepper: Option<Method>,
         /// Only this problem (logistic, cos-growth, harmonic-oscillator, rotating-decay,
-        /// so3-constant-rate, problem-k, symmetric-top, asymmetric-top).
+        /// so3-constant-rate, problem-k, symmetric-top, asymmetric-top, se3-constant-twist,
+        /// se3-screw-pair, se3-propelled-top).
         #[arg(long)]
         problem: Option<String>,
     },
