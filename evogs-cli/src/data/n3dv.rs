@@ -252,7 +252,7 @@ fn frame_names(images: &Path) -> Result<Vec<String>, DataError> {
     if !images.is_dir() {
         return Err(DataError::Missing {
             path: images.display().to_string(),
-            what: "the camera's frame folder (camXX/images/TTTT.png)",
+            what: "the camera's frame folder: camXX/images/TTTT.png",
         });
     }
     let entries = std::fs::read_dir(images).map_err(|e| DataError::Invalid {
@@ -505,10 +505,13 @@ pub(super) fn load(root: &Path, opts: &LoadOptions) -> Result<Dataset, DataError
             })
             .collect()
     };
-    let test_cams = named(&opts.test_cameras, "test camera folder (data.test_cameras)")?;
+    let test_cams = named(
+        &opts.test_cameras,
+        "the held-out test camera; name another in data.test_cameras",
+    )?;
     let val_cams = named(
         &opts.val_cameras,
-        "validation camera folder (data.val_cameras)",
+        "a validation camera named in data.val_cameras",
     )?;
     if let Some(&c) = test_cams.iter().find(|c| val_cams.contains(c)) {
         return Err(DataError::Invalid {
