@@ -396,7 +396,7 @@ fn tiny_config() -> TrainConfig {
 #[test]
 fn a_short_run_lowers_the_loss_with_frames_cached_or_decoded_on_demand_alike() {
     let c = tiny_config();
-    let ds = Dataset::load(&shipped_multiview_scene(), &load_options(&c, false)).expect("data");
+    let mut ds = Dataset::load(&shipped_multiview_scene(), &load_options(&c, false)).expect("data");
     let idx = supervised_indices(&ds.train, &c.data);
     let pts = ds.points.as_ref().expect("points");
     let pos: Vec<[f32; 3]> = pts.positions.iter().step_by(2).copied().collect();
@@ -411,7 +411,7 @@ fn a_short_run_lowers_the_loss_with_frames_cached_or_decoded_on_demand_alike() {
     let init = Some((pos.as_slice(), Some(col.as_slice())));
     let eager = training_views(&ds.train, &idx).expect("views in memory");
     let frame_bytes = ds.train[0].decoded_bytes();
-    let lazy = training_frames(&ds.train, &idx, 5 * frame_bytes).expect("views on demand");
+    let lazy = training_frames(&mut ds.train, &idx, 5 * frame_bytes).expect("views on demand");
     let mut a = Trainer::new(c.clone(), eager, init).expect("trainer");
     let mut b = Trainer::new(c, lazy, init).expect("trainer");
     let mut l1 = Vec::new();

@@ -268,12 +268,9 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
     rep.info(&format!("data: {}", data_dir.display()));
     let mut ds = load_dataset(&data_dir, &cfg, true)?;
     let idx = supervised_indices(&ds.train, &cfg.data);
-    let views = training_frames(&ds.train, &idx, cfg.data.cache_bytes()).map_err(CommandError)?;
-    // The training views hold what they need; the dataset's copies of the training images
-    // are not used again.
-    for v in &mut ds.train {
-        v.image = None;
-    }
+    // The loaded training images move into the training views.
+    let views =
+        training_frames(&mut ds.train, &idx, cfg.data.cache_bytes()).map_err(CommandError)?;
     rep.info(&format!(
         "{} of {} training views supervised ({:?} protocol); {} layout, {}",
         views.len(),

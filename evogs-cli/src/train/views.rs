@@ -65,13 +65,14 @@ pub fn training_views(views: &[View], indices: &[usize]) -> Result<Vec<ViewData<
 }
 
 /// Training views for the given indices, their images read through a frame cache of
-/// `budget_bytes`: images already loaded are shared as they are, the others are decoded on
-/// demand (and ahead of use) by training.
+/// `budget_bytes`: images already loaded move into the training views (the dataset's views
+/// are left without them, so nothing is held twice), the others are decoded on demand (and
+/// ahead of use) by training.
 ///
 /// # Errors
 /// A bad camera.
 pub fn training_frames(
-    views: &[View],
+    views: &mut [View],
     indices: &[usize],
     budget_bytes: usize,
 ) -> Result<TrainViews, String> {
@@ -79,11 +80,11 @@ pub fn training_frames(
     let mut times = Vec::with_capacity(indices.len());
     let mut sources = Vec::with_capacity(indices.len());
     for &i in indices {
-        let v = &views[i];
+        let v = &mut views[i];
         cameras.push(view_camera(v)?);
         times.push(v.time);
-        sources.push(match &v.image {
-            Some(img) => FrameSource::Memory(Arc::new(img.clone())),
+        sources.push(match v.image.take() {
+            Some(img) => FrameSource::Memory(Arc::new(img)),
             None => FrameSource::File(Box::new(v.clone())),
         });
     }
