@@ -43,6 +43,9 @@ pub struct SplitMetrics {
     pub iterations: u64,
     /// Training time (seconds).
     pub train_seconds: f64,
+    /// The time range the frames were restricted to (`evogs eval --time-range A:B`), if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_range: Option<[f64; 2]>,
 }
 
 /// Renders the model at time `t` from `camera` (values clamped to [0, 1]).
@@ -128,5 +131,6 @@ pub fn evaluate_views(
         n_gaussians: model.len(),
         iterations: 0,
         train_seconds: 0.0,
+        time_range: None,
     })
 }

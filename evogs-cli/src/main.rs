@@ -70,8 +70,12 @@ enum Cmd {
         #[arg(long)]
         seed: Option<u64>,
         /// Continue from RUN/checkpoint.bin (with --iters to extend the run).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "force")]
         resume: bool,
+        /// Replace the run already in RUN (without it, training into a folder that holds a
+        /// checkpoint is refused).
+        #[arg(long)]
+        force: bool,
     },
     /// Run the paper's protocols for several motions with one preset, budget and dataset:
     /// a run per (protocol, motion, seed), each evaluated on its protocol's held-out sets,
@@ -173,7 +177,8 @@ enum Cmd {
         #[arg(long)]
         stepper: Option<Method>,
         /// Only this problem (logistic, cos-growth, harmonic-oscillator, rotating-decay,
-        /// so3-constant-rate, problem-k, symmetric-top, asymmetric-top).
+        /// so3-constant-rate, problem-k, symmetric-top, asymmetric-top, se3-constant-twist,
+        /// se3-screw-pair, se3-propelled-top).
         #[arg(long)]
         problem: Option<String>,
     },
@@ -283,6 +288,7 @@ impl Reporter for Terminal {
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
+    evogs_cli::app::interrupt::install().map_err(anyhow::Error::msg)?;
     let mut term = Terminal {
         bar: None,
         phase: String::new(),
@@ -304,6 +310,7 @@ fn main() -> Result<()> {
             iters,
             seed,
             resume,
+            force,
         } => {
             let args = TrainArgs {
                 data,
@@ -318,6 +325,7 @@ fn main() -> Result<()> {
                 seed,
                 format,
                 resume,
+                force,
                 skip_outputs: false,
             };
             let o = train(&args, &mut term)?;

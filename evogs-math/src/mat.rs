@@ -1,10 +1,10 @@
-//! Fixed-size matrices [`Mat2`] and [`Mat3`] over any [`Real`].
+//! Fixed-size matrices [`Mat2`], [`Mat3`] and [`Mat6`] over any [`Real`].
 //!
 //! Storage is **row-major**: `m[r][c]` is the entry in row `r`, column `c`, exactly as the
 //! formulas in the docs are written. (glam is column-major and nalgebra's storage is
 //! column-major too; the interop modules convert explicitly.)
 
-use crate::{Real, Vec2, Vec3};
+use crate::{Real, Vec2, Vec3, Vec6};
 use core::ops::{Add, AddAssign, Mul, Neg, Sub};
 
 /// A 2×2 matrix, row-major (`m[row][col]`).
@@ -19,6 +19,15 @@ pub struct Mat2<T> {
 pub struct Mat3<T> {
     /// Entries, `m[row][col]`.
     pub m: [[T; 3]; 3],
+}
+
+/// A 6×6 matrix, row-major (`m[row][col]`): the SE(3) adjoints and Jacobians, which act
+/// on [`Vec6`] tangents ξ = (ρ, φ). Usually built from four 3×3 blocks
+/// ([`Mat6::from_blocks`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Mat6<T> {
+    /// Entries, `m[row][col]`.
+    pub m: [[T; 6]; 6],
 }
 
 impl<T: Real> Mat2<T> {
@@ -333,10 +342,162 @@ impl<T: Real> Mul<Vec3<T>> for Mat3<T> {
     }
 }
 
+impl<T: Real> Mat6<T> {
+    /// The zero matrix.
+    #[inline]
+    #[must_use]
+    pub const fn zero() -> Self {
+        Self {
+            m: [[T::ZERO; 6]; 6],
+        }
+    }
+    /// The identity.
+    #[must_use]
+    pub fn identity() -> Self {
+        let mut r = Self::zero();
+        for i in 0..6 {
+            r.m[i][i] = T::ONE;
+        }
+        r
+    }
+    /// A matrix from its rows.
+    #[inline]
+    #[must_use]
+    pub const fn from_rows(m: [[T; 6]; 6]) -> Self {
+        Self { m }
+    }
+    /// The block matrix `[[a, b], [c, d]]` of four 3×3 blocks.
+    #[must_use]
+    pub fn from_blocks(a: Mat3<T>, b: Mat3<T>, c: Mat3<T>, d: Mat3<T>) -> Self {
+        let mut r = Self::zero();
+        for i in 0..3 {
+            for j in 0..3 {
+                r.m[i][j] = a.m[i][j];
+                r.m[i][j + 3] = b.m[i][j];
+                r.m[i + 3][j] = c.m[i][j];
+                r.m[i + 3][j + 3] = d.m[i][j];
+            }
+        }
+        r
+    }
+    /// The 3×3 block in block row `br` and block column `bc` (each 0 or 1).
+    #[must_use]
+    pub fn block(self, br: usize, bc: usize) -> Mat3<T> {
+        let mut r = Mat3::zero();
+        for i in 0..3 {
+            for j in 0..3 {
+                r.m[i][j] = self.m[3 * br + i][3 * bc + j];
+            }
+        }
+        r
+    }
+    /// Transpose.
+    #[must_use]
+    pub fn transpose(self) -> Self {
+        let mut r = Self::zero();
+        for i in 0..6 {
+            for j in 0..6 {
+                r.m[i][j] = self.m[j][i];
+            }
+        }
+        r
+    }
+    /// Matrix-vector product `M v`.
+    #[must_use]
+    pub fn mul_vec(self, v: Vec6<T>) -> Vec6<T> {
+        let v = v.to_array();
+        Vec6::from_array(core::array::from_fn(|i| {
+            (0..6).map(|j| self.m[i][j] * v[j]).sum()
+        }))
+    }
+    /// Transposed product `Mᵀ v`.
+    #[must_use]
+    pub fn tr_mul_vec(self, v: Vec6<T>) -> Vec6<T> {
+        let v = v.to_array();
+        Vec6::from_array(core::array::from_fn(|j| {
+            (0..6).map(|i| self.m[i][j] * v[i]).sum()
+        }))
+    }
+    /// Matrix product `self · o`.
+    #[must_use]
+    pub fn mul_mat(self, o: Self) -> Self {
+        let mut r = Self::zero();
+        for i in 0..6 {
+            for j in 0..6 {
+                r.m[i][j] = (0..6).map(|k| self.m[i][k] * o.m[k][j]).sum();
+            }
+        }
+        r
+    }
+    /// Scales every entry.
+    #[must_use]
+    pub fn scale(self, s: T) -> Self {
+        let mut r = self;
+        for e in r.m.as_flattened_mut() {
+            *e *= s;
+        }
+        r
+    }
+    /// Largest absolute entry.
+    #[must_use]
+    pub fn max_abs(self) -> T {
+        self.m
+            .as_flattened()
+            .iter()
+            .fold(T::ZERO, |s, e| s.max(e.abs()))
+    }
+    /// Converts the scalar type (through `f64`).
+    #[must_use]
+    pub fn cast<U: Real>(self) -> Mat6<U> {
+        Mat6 {
+            m: self.m.map(|row| row.map(|e| U::from_f64(e.to_f64()))),
+        }
+    }
+}
+
+impl<T: Real> Add for Mat6<T> {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        let mut r = self;
+        for (a, b) in r.m.as_flattened_mut().iter_mut().zip(o.m.as_flattened()) {
+            *a += *b;
+        }
+        r
+    }
+}
+impl<T: Real> Sub for Mat6<T> {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        self + (-o)
+    }
+}
+impl<T: Real> Neg for Mat6<T> {
+    type Output = Self;
+    fn neg(self) -> Self {
+        self.scale(-T::ONE)
+    }
+}
+impl<T: Real> Mul for Mat6<T> {
+    type Output = Self;
+    fn mul(self, o: Self) -> Self {
+        self.mul_mat(o)
+    }
+}
+impl<T: Real> Mul<Vec6<T>> for Mat6<T> {
+    type Output = Vec6<T>;
+    fn mul(self, v: Vec6<T>) -> Vec6<T> {
+        self.mul_vec(v)
+    }
+}
+
 /// `f32` 3×3 matrix.
 pub type Mat3f = Mat3<f32>;
 /// `f64` 3×3 matrix.
 pub type Mat3d = Mat3<f64>;
+/// `f32` 6×6 matrix.
+pub type Mat6f = Mat6<f32>;
+/// `f64` 6×6 matrix.
+pub type Mat6d = Mat6<f64>;
 
 #[cfg(test)]
 mod tests {
@@ -352,6 +513,30 @@ mod tests {
             Mat3::<f64>::zero().inverse().is_none(),
             "singular gives None"
         );
+    }
+
+    #[test]
+    fn mat6_blocks_products_and_transpose() {
+        use super::Mat6;
+        use crate::Vec6;
+        let a = Mat3::from_rows([[2.0, 0.3, -1.0], [0.5, 1.5, 0.2], [-0.4, 0.1, 3.0]]);
+        let b = Mat3::from_rows([[0.1, -0.7, 0.4], [1.2, 0.0, -0.3], [0.6, 0.9, -1.1]]);
+        let m = Mat6::from_blocks(a, b, Mat3::zero(), a.transpose());
+        assert!(
+            m.block(0, 1) == b && m.block(1, 1) == a.transpose(),
+            "blocks"
+        );
+        let v = Vec6::from_array([0.3, -0.2, 0.9, 1.1, -0.4, 0.25]);
+        let mv = m.mul_vec(v);
+        let want_head = a.mul_vec(v.head) + b.mul_vec(v.tail);
+        assert!((mv.head - want_head).norm() < 1e-15, "block product");
+        assert!(
+            (m.tr_mul_vec(v) - m.transpose().mul_vec(v)).norm() < 1e-15,
+            "Mᵀv"
+        );
+        let mm = m * m;
+        assert!((mm.block(0, 0) - a * a).max_abs() < 1e-15, "block of M²");
+        assert!(((m * Mat6::identity()) - m).max_abs() == 0.0, "identity");
     }
 
     #[test]

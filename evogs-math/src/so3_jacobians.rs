@@ -9,7 +9,8 @@
 //! A = (1 − cos θ)/θ²,  B = (θ − sin θ)/θ³,  D = 1/θ² − cot(θ/2)/(2θ)
 //! ```
 //!
-//! `Jl(φ) = Exp(φ)·Jr(φ)`. `Jl⁻¹` is the closed-form `dexp⁻¹` of left-trivialised
+//! `Jl(φ) = Exp(φ)·Jr(φ)`. [`jl_mul`] applies `Jl` without forming it (the translation of
+//! the SE(3) exponential is `Jl(φ)·ρ`). `Jl⁻¹` is the closed-form `dexp⁻¹` of left-trivialised
 //! Lie-group integrators (RKMK): with `R(t) = Exp(Ω(t))·Rₙ` and a world-frame rate ω,
 //! `Ω' = Jl⁻¹(Ω)·ω` ([`jl_inv_mul`], with its VJP [`jl_inv_mul_vjp`]).
 
@@ -51,6 +52,48 @@ pub fn left_jacobian_inv<T: Real>(phi: Vec3<T>) -> Mat3<T> {
 #[must_use]
 pub fn right_jacobian_inv<T: Real>(phi: Vec3<T>) -> Mat3<T> {
     left_jacobian_inv(-phi)
+}
+
+/// `Jl(φ)·v = v + A φ×v + B φ×(φ×v)`, without forming the matrix (`Jl(φ)ᵀ·v` is
+/// `jl_mul(−φ, v)`).
+///
+/// This is also the translation of the SE(3) exponential, `t = Jl(φ)·ρ`
+/// ([`Se3::exp`](crate::Se3::exp)).
+#[inline]
+#[must_use]
+pub fn jl_mul<T: Real>(phi: Vec3<T>, v: Vec3<T>) -> Vec3<T> {
+    let t2 = phi.norm_squared();
+    let c = phi.cross(v);
+    v + c * one_minus_cos_over_sq(t2) + phi.cross(c) * theta_minus_sin_over_cube(t2)
+}
+
+/// VJP of [`jl_mul`]: given the cotangent `g` of the output, returns `(∂L/∂φ, ∂L/∂v)`.
+///
+/// `∂L/∂v = Jl(φ)ᵀ·g`. For φ, with `u = φ×(φ×v)`:
+/// `A·v×g + B·[(φ·v) g + (g·φ) v − 2(g·v) φ] + 2 [A'·g·(φ×v) + B'·g·u] φ`, where
+/// `A' = dA/d(θ²)` and `B' = dB/d(θ²)` come from dual-number evaluations of the coefficient
+/// functions (exact to rounding in both of their branches), as in [`jl_inv_mul_vjp`].
+///
+/// ```
+/// use evogs_math::{Vec3, so3_jacobians::{jl_mul, jl_mul_vjp}};
+/// use evogs_math::diff::{central_gradient, GradCheck};
+/// let (phi, v, g) = (Vec3::new(0.4, -0.9, 0.3), Vec3::new(1.0, 0.2, -0.5), Vec3::new(0.3, 0.7, -1.1));
+/// let (d_phi, _) = jl_mul_vjp(phi, v, g);
+/// let mut x = phi.to_array();
+/// let mut num = [0.0; 3];
+/// central_gradient(|p: &[f64]| jl_mul(Vec3::from_slice(p), v).dot(g), &mut x, &mut num);
+/// assert!(GradCheck::new(1e-10, 1e-8).check(&d_phi.to_array(), &num).passed());
+/// ```
+#[must_use]
+pub fn jl_mul_vjp<T: Real>(phi: Vec3<T>, v: Vec3<T>, g: Vec3<T>) -> (Vec3<T>, Vec3<T>) {
+    let t2 = Dual::variable(phi.norm_squared());
+    let (a, b) = (one_minus_cos_over_sq(t2), theta_minus_sin_over_cube(t2));
+    let c = phi.cross(v);
+    let u = phi.cross(c);
+    let d_phi = v.cross(g) * a.re
+        + (g * phi.dot(v) + v * g.dot(phi) - phi * (T::TWO * g.dot(v))) * b.re
+        + phi * (T::TWO * (a.eps * g.dot(c) + b.eps * g.dot(u)));
+    (d_phi, jl_mul(-phi, g))
 }
 
 /// `Jl⁻¹(Ω)·ω = ω − ½ Ω×ω + D(θ) Ω×(Ω×ω)`, without forming the matrix.
@@ -214,6 +257,51 @@ mod tests {
                 11,
             );
             assert!(r < 1e-13, "dot test residual {r} at {big:?}");
+        }
+    }
+
+    #[test]
+    fn jl_mul_matches_the_matrix_and_its_vjp_the_fd_and_dual_numbers() {
+        let v = Vec3::new(1.0, 0.2, -0.5);
+        let g = Vec3::new(0.3, 0.7, -1.1);
+        for phi in samples() {
+            let d = jl_mul(phi, v) - left_jacobian(phi).mul_vec(v);
+            assert!(d.norm() < 1e-15, "Jl v at {phi:?}");
+            let (d_phi, d_v) = jl_mul_vjp(phi, v, g);
+            let mut x = phi.to_array();
+            let mut num = [0.0; 3];
+            central_gradient(
+                |p: &[f64]| jl_mul(Vec3::from_slice(p), v).dot(g),
+                &mut x,
+                &mut num,
+            );
+            GradCheck::new(1e-9, 1e-7)
+                .check(&d_phi.to_array(), &num)
+                .assert_passed("jl_mul d φ");
+            let want_v = left_jacobian(phi).tr_mul_vec(g);
+            assert!((d_v - want_v).norm() < 1e-15, "d v = Jlᵀ g");
+            let x0 = [phi.x, phi.y, phi.z, v.x, v.y, v.z];
+            let r = vjp_dot_test(
+                |dir: &[f64], out: &mut [f64]| {
+                    dual_jvp(
+                        |x: &[crate::Dual<f64>], y: &mut [crate::Dual<f64>]| {
+                            jl_mul(Vec3::from_slice(x), Vec3::from_slice(&x[3..])).write_to(y);
+                        },
+                        &x0,
+                        dir,
+                        out,
+                    );
+                },
+                |gg: &[f64], out: &mut [f64]| {
+                    let (a, b) = jl_mul_vjp(phi, v, Vec3::from_slice(gg));
+                    a.write_to(out);
+                    b.write_to(&mut out[3..]);
+                },
+                6,
+                3,
+                13,
+            );
+            assert!(r < 1e-13, "dot test residual {r} at {phi:?}");
         }
     }
 

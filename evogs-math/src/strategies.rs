@@ -1,9 +1,10 @@
 //! Public proptest strategies for evogs-math types (feature `proptest`).
 //!
-//! Random draws alone rarely produce the cases that break SO(3) code, so the rotation
-//! strategies mix log-uniform magnitudes (1e-12 … π) with angles just below π.
+//! Random draws alone rarely produce the cases that break SO(3) and SE(3) code, so the
+//! rotation strategies mix log-uniform magnitudes (1e-12 … π) with angles just below π, and
+//! the SE(3) strategies build on them ([`se3_tangent`], [`se3`], [`se3_perturbation`]).
 
-use crate::{Quat, Vec3};
+use crate::{Quat, Se3, Vec3, Vec6};
 use proptest::prelude::*;
 
 /// A 3-vector with components in `[-r, r]`.
@@ -40,4 +41,33 @@ pub fn unit_quat() -> impl Strategy<Value = Quat<f64>> {
 /// A raw (unnormalised) quaternion with norm in roughly [0.3, 2].
 pub fn raw_quat() -> impl Strategy<Value = Quat<f64>> {
     (unit_quat(), 0.3..2.0f64).prop_map(|(q, s)| q.scale(s))
+}
+
+/// A 6-vector with components in `[-r, r]`.
+pub fn vec6(r: f64) -> impl Strategy<Value = Vec6<f64>> {
+    (vec3(r), vec3(r)).prop_map(|(a, b)| Vec6::new(a, b))
+}
+
+/// An SE(3) tangent ξ = (ρ, φ): a translation part with components in `[-r, r]` and a
+/// rotation part from [`so3_tangent`]`(max_angle)` (log-uniform angles from 1e-12, a share
+/// just below `max_angle`). With `max_angle > π` it also draws rotations that `Log` wraps.
+pub fn se3_tangent(max_angle: f64, r: f64) -> impl Strategy<Value = Vec6<f64>> {
+    (vec3(r), so3_tangent(max_angle)).prop_map(|(rho, phi)| Vec6::new(rho, phi))
+}
+
+/// A rigid transform: half from a uniform unit quaternion, half from [`se3_tangent`]`(π, r)`
+/// (so angles near 0 and near π both occur), with translations in `[-r, r]`³.
+pub fn se3(r: f64) -> impl Strategy<Value = Se3<f64>> {
+    prop_oneof![
+        (unit_quat(), vec3(r)).prop_map(|(q, t)| Se3::from_quat_translation(q, t)),
+        se3_tangent(core::f64::consts::PI, r).prop_map(Se3::exp),
+    ]
+}
+
+/// A small tangent perturbation: a uniformly oriented 6-vector of norm `size`.
+pub fn se3_perturbation(size: f64) -> impl Strategy<Value = Vec6<f64>> {
+    (unit_vec3(), unit_vec3(), 0.0..core::f64::consts::FRAC_PI_2).prop_map(move |(a, b, t)| {
+        let (s, c) = num_traits::Float::sin_cos(t);
+        Vec6::new(a * (c * size), b * (s * size))
+    })
 }

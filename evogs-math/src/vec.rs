@@ -1,4 +1,4 @@
-//! Fixed-size vectors [`Vec2`] and [`Vec3`] over any [`Real`].
+//! Fixed-size vectors [`Vec2`], [`Vec3`] and [`Vec6`] over any [`Real`].
 //!
 //! Plain `Copy` structs with public fields and inherent methods (glam's style); the
 //! scalar is a type parameter so the same code runs in `f32`, `f64` and dual numbers.
@@ -24,6 +24,19 @@ pub struct Vec3<T> {
     pub y: T,
     /// Third component.
     pub z: T,
+}
+
+/// A 6-vector as two 3-vectors: entries 0–2 are `head`, entries 3–5 are `tail`.
+///
+/// Used for SE(3) tangents, twists and their cotangents, ordered **ξ = (ρ, φ)**:
+/// `head` = ρ (translation part), `tail` = φ (rotation part), as in sophus
+/// (see [`se3`](crate::se3)).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Vec6<T> {
+    /// Entries 0–2 (ρ, the translation part of an SE(3) tangent).
+    pub head: Vec3<T>,
+    /// Entries 3–5 (φ, the rotation part of an SE(3) tangent).
+    pub tail: Vec3<T>,
 }
 
 impl<T: Real> Vec2<T> {
@@ -224,6 +237,105 @@ impl<T: Real> Vec3<T> {
     }
 }
 
+impl<T: Real> Vec6<T> {
+    /// A vector from its two halves.
+    #[inline]
+    #[must_use]
+    pub const fn new(head: Vec3<T>, tail: Vec3<T>) -> Self {
+        Self { head, tail }
+    }
+    /// The zero vector.
+    #[inline]
+    #[must_use]
+    pub const fn zero() -> Self {
+        Self::new(Vec3::zero(), Vec3::zero())
+    }
+    /// The unit vector along axis `i` (0–5).
+    #[inline]
+    #[must_use]
+    pub fn unit(i: usize) -> Self {
+        let mut v = Self::zero();
+        v[i] = T::ONE;
+        v
+    }
+    /// Dot product.
+    #[inline]
+    #[must_use]
+    pub fn dot(self, o: Self) -> T {
+        self.head.dot(o.head) + self.tail.dot(o.tail)
+    }
+    /// Squared Euclidean norm.
+    #[inline]
+    #[must_use]
+    pub fn norm_squared(self) -> T {
+        self.dot(self)
+    }
+    /// Euclidean norm.
+    #[inline]
+    #[must_use]
+    pub fn norm(self) -> T {
+        self.norm_squared().sqrt()
+    }
+    /// Largest absolute component.
+    #[inline]
+    #[must_use]
+    pub fn max_abs(self) -> T {
+        self.to_array().iter().fold(T::ZERO, |m, x| m.max(x.abs()))
+    }
+    /// `true` if every component is finite.
+    #[inline]
+    #[must_use]
+    pub fn is_finite(self) -> bool {
+        self.head.is_finite() && self.tail.is_finite()
+    }
+    /// Components as an array.
+    #[inline]
+    #[must_use]
+    pub const fn to_array(self) -> [T; 6] {
+        let (h, t) = (self.head, self.tail);
+        [h.x, h.y, h.z, t.x, t.y, t.z]
+    }
+    /// A vector from an array.
+    #[inline]
+    #[must_use]
+    pub const fn from_array(a: [T; 6]) -> Self {
+        Self::new(Vec3::new(a[0], a[1], a[2]), Vec3::new(a[3], a[4], a[5]))
+    }
+    /// A vector from the first six entries of a slice.
+    ///
+    /// # Panics
+    /// If the slice is shorter than 6.
+    #[inline]
+    #[must_use]
+    pub fn from_slice(s: &[T]) -> Self {
+        Self::new(Vec3::from_slice(s), Vec3::from_slice(&s[3..]))
+    }
+    /// Writes the components into the first six entries of a slice.
+    ///
+    /// # Panics
+    /// If the slice is shorter than 6.
+    #[inline]
+    pub fn write_to(self, s: &mut [T]) {
+        self.head.write_to(s);
+        self.tail.write_to(&mut s[3..]);
+    }
+    /// Adds the components into the first six entries of a slice.
+    ///
+    /// # Panics
+    /// If the slice is shorter than 6.
+    #[inline]
+    pub fn add_to(self, s: &mut [T]) {
+        self.head.add_to(s);
+        self.tail.add_to(&mut s[3..]);
+    }
+    /// Converts the scalar type (through `f64`).
+    #[inline]
+    #[must_use]
+    pub fn cast<U: Real>(self) -> Vec6<U> {
+        Vec6::new(self.head.cast(), self.tail.cast())
+    }
+}
+
 macro_rules! impl_vec_ops {
     ($V:ident { $($f:ident),+ }) => {
         impl<T: Real> Add for $V<T> {
@@ -277,6 +389,7 @@ macro_rules! impl_vec_ops {
 
 impl_vec_ops!(Vec2 { x, y });
 impl_vec_ops!(Vec3 { x, y, z });
+impl_vec_ops!(Vec6 { head, tail });
 
 impl<T> Index<usize> for Vec2<T> {
     type Output = T;
@@ -323,6 +436,28 @@ impl<T> IndexMut<usize> for Vec3<T> {
     }
 }
 
+impl<T> Index<usize> for Vec6<T> {
+    type Output = T;
+    #[inline]
+    fn index(&self, i: usize) -> &T {
+        match i {
+            0..3 => &self.head[i],
+            3..6 => &self.tail[i - 3],
+            _ => panic!("Vec6 index {i} out of range"),
+        }
+    }
+}
+impl<T> IndexMut<usize> for Vec6<T> {
+    #[inline]
+    fn index_mut(&mut self, i: usize) -> &mut T {
+        match i {
+            0..3 => &mut self.head[i],
+            3..6 => &mut self.tail[i - 3],
+            _ => panic!("Vec6 index {i} out of range"),
+        }
+    }
+}
+
 /// `f32` 3-vector.
 pub type Vec3f = Vec3<f32>;
 /// `f64` 3-vector.
@@ -331,6 +466,10 @@ pub type Vec3d = Vec3<f64>;
 pub type Vec2f = Vec2<f32>;
 /// `f64` 2-vector.
 pub type Vec2d = Vec2<f64>;
+/// `f32` 6-vector.
+pub type Vec6f = Vec6<f32>;
+/// `f64` 6-vector.
+pub type Vec6d = Vec6<f64>;
 
 #[cfg(test)]
 mod tests {

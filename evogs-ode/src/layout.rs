@@ -1,4 +1,4 @@
-//! State layouts: which parts of a state vector are Euclidean and which are rotations.
+//! State layouts: which parts of a state vector are Euclidean, rotations or rigid transforms.
 //!
 //! A state is a flat slice. Its layout is a short per-particle **pattern** of blocks,
 //! repeated `count` times (particle-major), so one vector field can carry many particles
@@ -16,6 +16,13 @@
 //! `R ← Exp(h ω)·R`. Cotangents (gradients) of SO(3) blocks are 3-vectors with respect to
 //! a **left** perturbation `R ↦ Exp(δ)·R` (world frame).
 //!
+//! An [`Block::Se3`] block stores a rigid transform `T = (R, t)` as a **unit quaternion
+//! (w, x, y, z) followed by the translation** (7 ambient entries) and has 6 tangent entries
+//! ordered **(ρ, φ)**, translation part first: a vector field returns a **world-frame
+//! (left) twist** ξ there (`Ṫ = ξ̂·T`, i.e. `Ṙ = φ̂R`, `ṫ = φ × t + ρ`), steppers update
+//! `T ← Exp(h ξ)·T`, and cotangents are 6-vectors with respect to `T ↦ Exp(δ)·T`
+//! (conventions of [`evogs_math::se3`]).
+//!
 //! Everything that is not a state (time derivatives, cotangents, adjoints) uses tangent
 //! coordinates.
 
@@ -29,6 +36,9 @@ pub enum Block {
     Euclidean(usize),
     /// A rotation: a unit quaternion (w, x, y, z) in the state, a 3-vector in tangent space.
     So3,
+    /// A rigid transform: a unit quaternion (w, x, y, z) and a translation (7 numbers) in the
+    /// state, a twist (ρ, φ) (6 numbers, translation part first) in tangent space.
+    Se3,
 }
 
 impl Block {
@@ -39,6 +49,7 @@ impl Block {
         match self {
             Self::Euclidean(n) => n,
             Self::So3 => 4,
+            Self::Se3 => 7,
         }
     }
     /// Entries in tangent vectors (derivatives, cotangents).
@@ -48,6 +59,7 @@ impl Block {
         match self {
             Self::Euclidean(n) => n,
             Self::So3 => 3,
+            Self::Se3 => 6,
         }
     }
 }
@@ -149,7 +161,8 @@ impl StateLayout {
         self.particle_tangent_len() * self.count
     }
 
-    /// `true` if there is no SO(3) block (ambient and tangent coordinates coincide).
+    /// `true` if there is no Lie-group (SO(3) or SE(3)) block: ambient and tangent
+    /// coordinates coincide.
     #[must_use]
     pub fn is_euclidean(&self) -> bool {
         self.pattern()
@@ -206,5 +219,14 @@ mod tests {
         assert_eq!(spans[2].tangent, 6, "after the 3 tangent entries");
         assert_eq!((l.ambient_len(), l.tangent_len()), (45, 40), "totals");
         assert!(StateLayout::euclidean(4).is_euclidean(), "euclidean layout");
+        let l = StateLayout::particles(&[Block::Euclidean(2), Block::Se3, Block::So3], 3);
+        assert_eq!(l.span(2).ambient, 9, "after the 7 numbers of the transform");
+        assert_eq!(
+            l.span(2).tangent,
+            8,
+            "after the 6 tangent entries of the transform"
+        );
+        assert_eq!((l.ambient_len(), l.tangent_len()), (39, 33), "SE(3) totals");
+        assert!(!l.is_euclidean(), "an SE(3) block is not Euclidean");
     }
 }

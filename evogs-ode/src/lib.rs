@@ -1,6 +1,6 @@
 //! # evogs-ode
 //!
-//! Fixed-grid ODE integration on vector spaces and SO(3), with **exact** discrete adjoints,
+//! Fixed-grid ODE integration on vector spaces, SO(3) and SE(3), with **exact** discrete adjoints,
 //! continuous adjoints for comparison, vector-field algebra, reference problems with exact
 //! solutions and empirical order verification. `no_std` + `alloc`.
 //!
@@ -8,7 +8,7 @@
 //! |---|---|
 //! | right-hand sides | [`VectorField`] (`eval` + accumulating `vjp`), [`StateLayout`], [`fields`] |
 //! | methods | [`Method`] (Euler, midpoint, Heun, RK4, RK4 3/8), [`Tableau`] (exact rationals) |
-//! | stepping | [`Stepper`] (one RK core; RKMK on SO(3) blocks), [`TimeGrid`], [`integrate`] |
+//! | stepping | [`Stepper`] (one RK core; RKMK on SO(3) and SE(3) blocks), [`TimeGrid`], [`integrate`] |
 //! | trajectories | [`integrate_trajectory`], [`Trajectory`], [`Checkpointing`] (store-all, every-k) |
 //! | gradients | [`discrete_adjoint`] (exact), [`Stepper::step_vjp`], [`continuous_adjoint`] |
 //! | motion editing | [`algebra`]: `Sum`, `Scaled`, `Mix` with masks, `RigidRotation`, `Translation` |
@@ -24,6 +24,11 @@
 //! - a field returns a **world-frame angular velocity** ω there (`R' = ω̂R`);
 //! - cotangents (gradients) are 3-vectors with respect to the **left** perturbation
 //!   `R ↦ Exp(δ)·R`, e.g. for `L = aᵀRb` the cotangent is `(Rb) × a`.
+//!
+//! An `Se3` block stores a rigid transform as the **unit quaternion then the translation**
+//! (7 ambient numbers) and has **6 tangent numbers (ρ, φ)**, translation part first: a
+//! field returns a **world-frame twist** there (`Ṫ = ξ̂T`), and cotangents are taken with
+//! respect to `T ↦ Exp(δ)·T` (conventions: [`evogs_math::se3`], `docs/se3.md`).
 //!
 //! States are ambient; derivatives, cotangents and adjoints are tangent.
 //!
@@ -43,7 +48,11 @@
 //! `dexp⁻¹` of SO(3)) keeps the tableau's order. The Euler tableau gives Lie–Euler
 //! `R ← Exp(hω)R`, classical RK4 gives RKMK4; both are exact for a constant rate, and the
 //! measured orders on Problem K (a time-varying rotation with an exact solution) are
-//! 1, 2, 2, 4, 4. Integrating the quaternion as a vector and renormalising would also keep
+//! 1, 2, 2, 4, 4. SE(3) blocks run the same rule with the SE(3) exponential and its
+//! closed-form `Jl⁻¹` (Barfoot's `Q` block), measured at the same orders on
+//! [`problems::ScrewPair`] (SE(3)) and [`problems::PropelledTop`] (SE(3) × ℝ³); the discrete
+//! adjoint transports cotangents with `Ad(Exp(Ω))ᵀ` instead of `Exp(Ω)ᵀ`. Integrating the
+//! quaternion as a vector and renormalising would also keep
 //! the order, but exp-based steps stay on the group and their adjoints live in the 3-D
 //! tangent space.
 //!

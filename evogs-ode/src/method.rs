@@ -6,8 +6,9 @@ use core::str::FromStr;
 
 /// A built-in explicit Runge–Kutta method.
 ///
-/// Every method runs through the same stepper core; on SO(3) blocks that core is the
-/// left-trivialised Runge–Kutta–Munthe-Kaas method with the same tableau, so:
+/// Every method runs through the same stepper core; on SO(3) and SE(3) blocks that core is
+/// the left-trivialised Runge–Kutta–Munthe-Kaas method with the same tableau, so (SE(3)
+/// blocks alike, with `T ← Exp(hξ)T`):
 ///
 /// | method | Euclidean blocks | SO(3) blocks | order |
 /// |---|---|---|---|
@@ -65,7 +66,7 @@ impl Method {
         }
     }
 
-    /// The classical order (also the order on SO(3) blocks).
+    /// The classical order (also the order on SO(3) and SE(3) blocks).
     #[must_use]
     pub const fn order(self) -> usize {
         match self {

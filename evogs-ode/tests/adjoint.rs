@@ -1,15 +1,15 @@
 //! The discrete adjoint is the exact gradient of the discrete map: checked against central
 //! differences of the discrete solve (f64, relative 1e-7) for every method including the
-//! Lie ones (SO(3) initial states perturbed as Exp(δ)·R), against a dual-number JVP by the
-//! dot-product test, against the exact discrete gradient of a linear problem, and
-//! checkpointing policies against each other (bitwise).
+//! Lie ones (SO(3) and SE(3) initial states perturbed as Exp(δ)·R and Exp(δ)·T), against a
+//! dual-number JVP by the dot-product test, against the exact discrete gradient of a linear
+//! problem, and checkpointing policies against each other (bitwise).
 
 mod common;
 
-use common::{CoupledField, Loss, N_THETA, random_state, retract};
+use common::{CoupledField, CoupledSe3Field, Loss, N_THETA, random_state, retract};
 use evogs_math::diff::{GradCheck, central_gradient, vjp_dot_test};
 use evogs_math::{Dual, Quat, Vec3};
-use evogs_ode::problems::{RotatingDecay, SymmetricTop};
+use evogs_ode::problems::{PropelledTop, RotatingDecay, SymmetricTop};
 use evogs_ode::{
     Block, Checkpointing, Method, StateLayout, Stepper, TimeGrid, Trajectory, VectorField,
     discrete_adjoint, discrete_adjoint_observed, integrate, integrate_steps, integrate_trajectory,
@@ -83,36 +83,91 @@ fn grids() -> [(&'static str, TimeGrid<f64>); 3] {
     ]
 }
 
-#[test]
-fn discrete_adjoint_matches_central_differences_with_so3_blocks() {
-    let proto = CoupledField::<f64>::random(2, 7);
-    let layout = proto.layout();
-    let y0 = random_state(&layout, 3);
-    let loss = Loss::new(layout, 5);
+/// The discrete adjoint of `make(theta)` from `y0` against central differences, for every
+/// method on every grid; returns the worst absolute error.
+fn check_against_central_differences<F: VectorField<f64>>(
+    what: &str,
+    theta: &[f64],
+    make: impl Fn(&[f64]) -> F,
+    y0: &[f64],
+    loss_seed: u64,
+    policy: Checkpointing,
+) -> f64 {
+    let layout = make(theta).layout();
+    let loss = Loss::new(layout, loss_seed);
     let mut worst: f64 = 0.0;
     for m in Method::ALL {
-        for (what, grid) in grids() {
-            let mut field = proto.clone();
-            let analytic =
-                adjoint_gradient(&mut field, m, &grid, &y0, &loss, Checkpointing::StoreAll);
-            let numeric = numeric_gradient(
-                |th| CoupledField {
-                    theta: th.to_vec(),
-                    count: 2,
-                },
-                &proto.theta,
-                &layout,
-                m,
-                &grid,
-                &y0,
-                &loss,
-            );
+        for (grid_name, grid) in grids() {
+            let mut field = make(theta);
+            let analytic = adjoint_gradient(&mut field, m, &grid, y0, &loss, policy);
+            let numeric = numeric_gradient(&make, theta, &layout, m, &grid, y0, &loss);
             let rep = GradCheck::new(1e-9, 1e-7).check(&analytic, &numeric);
-            rep.assert_passed(&format!("coupled SO(3) field, {m}, {what}"));
+            rep.assert_passed(&format!("{what}, {m}, {grid_name}"));
             worst = worst.max(rep.max_abs_err);
         }
     }
+    worst
+}
+
+#[test]
+fn discrete_adjoint_matches_central_differences_with_so3_blocks() {
+    let proto = CoupledField::<f64>::random(2, 7);
+    let make = |th: &[f64]| CoupledField {
+        theta: th.to_vec(),
+        count: 2,
+    };
+    let y0 = random_state(&proto.layout(), 3);
+    let worst = check_against_central_differences(
+        "coupled SO(3) field",
+        &proto.theta,
+        make,
+        &y0,
+        5,
+        Checkpointing::StoreAll,
+    );
     println!("coupled SO(3) field: worst |analytic − central difference| = {worst:.2e}");
+}
+
+#[test]
+fn discrete_adjoint_matches_central_differences_with_se3_blocks() {
+    let proto = CoupledSe3Field::<f64>::random(2, 17);
+    let make = |th: &[f64]| CoupledSe3Field {
+        theta: th.to_vec(),
+        count: 2,
+    };
+    let y0 = random_state(&proto.layout(), 13);
+    let worst = check_against_central_differences(
+        "coupled SE(3) field",
+        &proto.theta,
+        make,
+        &y0,
+        15,
+        Checkpointing::StoreAll,
+    );
+    println!("coupled SE(3) field: worst |analytic − central difference| = {worst:.2e}");
+}
+
+#[test]
+fn discrete_adjoint_matches_central_differences_on_the_propelled_top() {
+    let top = PropelledTop::<f64>::default();
+    let mut y0 = [0.0; 10];
+    evogs_ode::problems::ExactProblem::initial_state(&top, &mut y0);
+    let make = |th: &[f64]| {
+        let mut t = top;
+        t.top.body.inertia = Vec3::from_slice(th);
+        t.speed = th[3];
+        t
+    };
+    // An asymmetric body.
+    let theta = [1.0, 1.7, 2.4, 0.6];
+    check_against_central_differences(
+        "propelled top",
+        &theta,
+        make,
+        &y0,
+        12,
+        Checkpointing::sqrt(7),
+    );
 }
 
 #[test]
@@ -120,25 +175,14 @@ fn discrete_adjoint_matches_central_differences_on_the_rigid_body() {
     let top = SymmetricTop::<f64>::default();
     let mut y0 = [0.0; 7];
     evogs_ode::problems::ExactProblem::initial_state(&top, &mut y0);
-    let layout = top.layout();
-    let loss = Loss::new(layout, 11);
-    let theta = [1.0, 1.7, 2.4]; // an asymmetric body
-    for m in Method::ALL {
-        for (what, grid) in grids() {
-            let make = |th: &[f64]| {
-                let mut t = top;
-                t.body.inertia = Vec3::from_slice(th);
-                t
-            };
-            let mut field = make(&theta);
-            let analytic =
-                adjoint_gradient(&mut field, m, &grid, &y0, &loss, Checkpointing::sqrt(7));
-            let numeric = numeric_gradient(make, &theta, &layout, m, &grid, &y0, &loss);
-            GradCheck::new(1e-9, 1e-7)
-                .check(&analytic, &numeric)
-                .assert_passed(&format!("rigid body, {m}, {what}"));
-        }
-    }
+    let make = |th: &[f64]| {
+        let mut t = top;
+        t.body.inertia = Vec3::from_slice(th);
+        t
+    };
+    // An asymmetric body.
+    let theta = [1.0, 1.7, 2.4];
+    check_against_central_differences("rigid body", &theta, make, &y0, 11, Checkpointing::sqrt(7));
 }
 
 #[test]
@@ -184,27 +228,25 @@ fn checkpointing_policies_give_bitwise_identical_gradients() {
 }
 
 /// Forward-mode derivative of the whole discrete map, in tangent coordinates, from the same
-/// generic stepper run on dual numbers.
-fn dual_jvp_of_solve(
+/// generic stepper run on dual numbers: `v = [δ (tangent), θ̇]`, the field built by `make`
+/// from dual parameters.
+fn dual_jvp_of_solve<F: VectorField<Dual<f64>>>(
     m: Method,
     grid: &TimeGrid<f64>,
-    proto: &CoupledField<f64>,
+    layout: StateLayout,
+    theta: &[f64],
+    make: impl Fn(Vec<Dual<f64>>) -> F,
     y0: &[f64],
     v: &[f64],
     out: &mut [f64],
 ) {
-    let layout = proto.layout();
     let n = layout.tangent_len();
-    let theta: Vec<Dual<f64>> = proto
-        .theta
+    let theta: Vec<Dual<f64>> = theta
         .iter()
         .zip(&v[n..])
         .map(|(&a, &b)| Dual::new(a, b))
         .collect();
-    let mut field = CoupledField {
-        theta,
-        count: proto.count,
-    };
+    let mut field = make(theta);
     let y0d: Vec<Dual<f64>> = y0.iter().map(|&a| Dual::constant(a)).collect();
     let vd: Vec<Dual<f64>> = v[..n].iter().map(|&b| Dual::new(0.0, b)).collect();
     let mut y = retract(&layout, &y0d, &vd);
@@ -215,8 +257,11 @@ fn dual_jvp_of_solve(
     );
     let mut st = Stepper::new(m, layout);
     integrate(&mut field, &mut st, &gd, &mut y);
-    // Dual parts → tangent: Euclidean as is; SO(3): dq = ½(0, ε)⊗q ⇒ ε = 2 vec(dq ⊗ q*).
+    // Dual parts → tangent: Euclidean as is; SO(3): dq = ½(0, ε)⊗q ⇒ ε = 2 vec(dq ⊗ q*);
+    // SE(3): the same ε_φ, and dt = ε_ρ + ε_φ × t ⇒ ε_ρ = dt − ε_φ × t.
     let (pa, pt) = (layout.particle_ambient_len(), layout.particle_tangent_len());
+    let re = |a: &[Dual<f64>]| -> Vec<f64> { a.iter().map(|d| d.re).collect() };
+    let eps = |a: &[Dual<f64>]| -> Vec<f64> { a.iter().map(|d| d.eps).collect() };
     for p in 0..layout.count() {
         for sp in layout.spans() {
             let (o, ot) = (p * pa + sp.ambient, p * pt + sp.tangent);
@@ -226,12 +271,66 @@ fn dual_jvp_of_solve(
                         out[ot + e] = y[o + e].eps;
                     }
                 }
-                Block::So3 => {
-                    let q = Quat::new(y[o].re, y[o + 1].re, y[o + 2].re, y[o + 3].re);
-                    let dq = Quat::new(y[o].eps, y[o + 1].eps, y[o + 2].eps, y[o + 3].eps);
-                    (dq.mul_quat(q.conj()).vec() * 2.0).write_to(&mut out[ot..]);
+                Block::So3 | Block::Se3 => {
+                    let q = Quat::from_slice(&re(&y[o..o + 4]));
+                    let dq = Quat::from_slice(&eps(&y[o..o + 4]));
+                    let e_phi = dq.mul_quat(q.conj()).vec() * 2.0;
+                    if sp.block == Block::So3 {
+                        e_phi.write_to(&mut out[ot..]);
+                    } else {
+                        let t = Vec3::from_slice(&re(&y[o + 4..o + 7]));
+                        let dt = Vec3::from_slice(&eps(&y[o + 4..o + 7]));
+                        (dt - e_phi.cross(t)).write_to(&mut out[ot..]);
+                        e_phi.write_to(&mut out[ot + 3..]);
+                    }
                 }
             }
+        }
+    }
+}
+
+/// The dot-product test of the discrete adjoint against [`dual_jvp_of_solve`] for every
+/// method, forward and backward in time.
+fn check_dot_products<F, FD>(
+    what: &str,
+    layout: StateLayout,
+    theta: &[f64],
+    make: impl Fn(&[f64]) -> F,
+    make_dual: impl Fn(Vec<Dual<f64>>) -> FD,
+    y0: &[f64],
+) where
+    F: VectorField<f64>,
+    FD: VectorField<Dual<f64>>,
+{
+    let n = layout.tangent_len();
+    for m in Method::ALL {
+        for (dir, grid) in [
+            ("forward", TimeGrid::uniform(0.0, 0.9, 5)),
+            ("backward", TimeGrid::uniform(0.9, -0.3, 4)),
+        ] {
+            let r = vjp_dot_test(
+                |v: &[f64], out: &mut [f64]| {
+                    dual_jvp_of_solve(m, &grid, layout, theta, &make_dual, y0, v, out);
+                },
+                |w: &[f64], out: &mut [f64]| {
+                    let mut field = make(theta);
+                    let mut st = Stepper::new(m, layout);
+                    let traj = integrate_trajectory(
+                        &mut field,
+                        &mut st,
+                        &grid,
+                        y0,
+                        Checkpointing::StoreAll,
+                    );
+                    let (d_y0, d_th) = out.split_at_mut(n);
+                    discrete_adjoint(&mut field, &mut st, &traj, w, d_y0, d_th);
+                },
+                n + theta.len(),
+                n,
+                17,
+            );
+            println!("{what}, {m} {dir}: dot-product residual {r:.1e}");
+            assert!(r < 1e-13, "{what}, {m} {dir}: dot-product residual {r:e}");
         }
     }
 }
@@ -239,37 +338,35 @@ fn dual_jvp_of_solve(
 #[test]
 fn discrete_adjoint_passes_the_dot_product_test_against_dual_numbers() {
     let proto = CoupledField::<f64>::random(2, 31);
-    let layout = proto.layout();
-    let n = layout.tangent_len();
-    let y0 = random_state(&layout, 32);
-    for m in Method::ALL {
-        for (what, grid) in [
-            ("forward", TimeGrid::uniform(0.0, 0.9, 5)),
-            ("backward", TimeGrid::uniform(0.9, -0.3, 4)),
-        ] {
-            let r = vjp_dot_test(
-                |v: &[f64], out: &mut [f64]| dual_jvp_of_solve(m, &grid, &proto, &y0, v, out),
-                |w: &[f64], out: &mut [f64]| {
-                    let mut field = proto.clone();
-                    let mut st = Stepper::new(m, layout);
-                    let traj = integrate_trajectory(
-                        &mut field,
-                        &mut st,
-                        &grid,
-                        &y0,
-                        Checkpointing::StoreAll,
-                    );
-                    let (d_y0, d_th) = out.split_at_mut(n);
-                    discrete_adjoint(&mut field, &mut st, &traj, w, d_y0, d_th);
-                },
-                n + N_THETA,
-                n,
-                17,
-            );
-            println!("{m} {what}: dot-product residual {r:.1e}");
-            assert!(r < 1e-13, "{m} {what}: dot-product residual {r:e}");
-        }
-    }
+    let count = proto.count;
+    check_dot_products(
+        "coupled SO(3) field",
+        proto.layout(),
+        &proto.theta,
+        |th| CoupledField {
+            theta: th.to_vec(),
+            count,
+        },
+        |theta| CoupledField { theta, count },
+        &random_state(&proto.layout(), 32),
+    );
+}
+
+#[test]
+fn discrete_adjoint_passes_the_dot_product_test_with_se3_blocks() {
+    let proto = CoupledSe3Field::<f64>::random(2, 41);
+    let count = proto.count;
+    check_dot_products(
+        "coupled SE(3) field",
+        proto.layout(),
+        &proto.theta,
+        |th| CoupledSe3Field {
+            theta: th.to_vec(),
+            count,
+        },
+        |theta| CoupledSe3Field { theta, count },
+        &random_state(&proto.layout(), 42),
+    );
 }
 
 #[test]

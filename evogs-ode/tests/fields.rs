@@ -3,15 +3,16 @@
 
 mod common;
 
-use common::{random_state, retract};
+use common::{CoupledSe3Field, random_state, retract};
 use evogs_math::diff::{GradCheck, central_gradient, dual_jvp, vjp_dot_test};
 use evogs_math::rng::SplitMix64;
 use evogs_math::so3::log_quat;
-use evogs_math::{Dual, Quat, Vec3};
+use evogs_math::{Dual, Quat, Se3, Vec3, Vec6};
 use evogs_ode::fields::{LinearField, Mlp};
 use evogs_ode::problems::{
-    AsymmetricTop, ConstantRate, CosGrowth, DissipativePair, ExactProblem, HarmonicOscillator,
-    Logistic, ProblemK, RigidBody, RotatingDecay, SymmetricTop,
+    AsymmetricTop, ConstantRate, ConstantTwist, CosGrowth, DissipativePair, ExactProblem,
+    HarmonicOscillator, Logistic, ProblemK, PropelledTop, RigidBody, RotatingDecay, ScrewPair,
+    SymmetricTop,
 };
 use evogs_ode::{Block, StateLayout, VectorField};
 
@@ -103,6 +104,20 @@ fn example_field_vjps() {
         |th| Mlp::new(3, 16, th.to_vec()),
         &theta,
         &euclid(3, 2),
+    );
+    let proto = CoupledSe3Field::<f64>::random(2, 3);
+    check(
+        "coupled SE(3) test field",
+        |th| CoupledSe3Field {
+            theta: th.to_vec(),
+            count: 2,
+        },
+        |th| CoupledSe3Field {
+            theta: th.to_vec(),
+            count: 2,
+        },
+        &proto.theta,
+        &random_state(&proto.layout(), 4),
     );
 }
 
@@ -199,10 +214,50 @@ fn problem_field_vjps() {
         &[1.0, 2.2, 2.9],
         &random_state(&body, 4),
     );
+    let se3 = StateLayout::particles(&[Block::Se3], 1);
+    check(
+        "constant twist",
+        |th| ConstantTwist {
+            xi: Vec6::from_slice(th),
+            ..Default::default()
+        },
+        |th| ConstantTwist {
+            xi: Vec6::from_slice(th),
+            ..Default::default()
+        },
+        &[0.3, -0.2, 0.9, 0.5, 0.1, -0.7],
+        &random_state(&se3, 5),
+    );
+    check(
+        "screw pair",
+        |_| ScrewPair::default(),
+        |_| ScrewPair::default(),
+        &[],
+        &random_state(&se3, 6),
+    );
+    let propelled = StateLayout::particles(&[Block::Se3, Block::Euclidean(3)], 1);
+    check(
+        "propelled top",
+        |th| {
+            let mut p = PropelledTop::default();
+            p.top.body.inertia = Vec3::from_slice(th);
+            p.speed = th[3];
+            p
+        },
+        |th| {
+            let mut p = PropelledTop::default();
+            p.top.body.inertia = Vec3::from_slice(th);
+            p.speed = th[3];
+            p
+        },
+        &[1.0, 2.2, 2.9, 0.6],
+        &random_state(&propelled, 7),
+    );
 }
 
 /// `(exact(t + ε) ⊖ exact(t − ε))/2ε` equals the field at `exact(t)` (tangent
-/// coordinates: `Log(q₊ q₋*)` on SO(3) blocks, the world-frame rate).
+/// coordinates: `Log(q₊ q₋*)` on SO(3) blocks, the world-frame rate; `Log(T₊ T₋⁻¹)` on
+/// SE(3) blocks, the world-frame twist).
 fn exact_solves_its_ode<P: ExactProblem<f64>>(p: &mut P) {
     let layout = p.layout();
     let (na, n) = (layout.ambient_len(), layout.tangent_len());
@@ -236,6 +291,10 @@ fn exact_solves_its_ode<P: ExactProblem<f64>>(p: &mut P) {
                             Quat::from_slice(&yp[o..]).mul_quat(Quat::from_slice(&ym[o..]).conj());
                         (log_quat(qd) * (0.5 / eps)).to_array().to_vec()
                     }
+                    Block::Se3 => {
+                        let d = Se3::from_slice(&yp[o..]) * Se3::from_slice(&ym[o..]).inverse();
+                        (d.log() * (0.5 / eps)).to_array().to_vec()
+                    }
                 };
                 for (e, v) in d.iter().enumerate() {
                     let want = f[ot + e];
@@ -259,6 +318,9 @@ fn closed_forms_solve_their_odes() {
     exact_solves_its_ode(&mut ConstantRate::default());
     exact_solves_its_ode(&mut ProblemK);
     exact_solves_its_ode(&mut SymmetricTop::default());
+    exact_solves_its_ode(&mut ConstantTwist::default());
+    exact_solves_its_ode(&mut ScrewPair::default());
+    exact_solves_its_ode(&mut PropelledTop::default());
     let top = AsymmetricTop::<f64>::default();
     let mut y = [0.0; 7];
     top.initial_state(&mut y);

@@ -8,8 +8,8 @@ use evogs_math::So3;
 use evogs_ode::fields::LinearField;
 use evogs_ode::order::{ConvergenceStudy, convergence_study, estimate_order};
 use evogs_ode::problems::{
-    AsymmetricTop, ConstantRate, CosGrowth, ExactProblem, HarmonicOscillator, Logistic, ProblemK,
-    RotatingDecay, SymmetricTop, state_distance,
+    AsymmetricTop, ConstantRate, ConstantTwist, CosGrowth, ExactProblem, HarmonicOscillator,
+    Logistic, ProblemK, PropelledTop, RotatingDecay, ScrewPair, SymmetricTop, state_distance,
 };
 use evogs_ode::{Method, Rational as R, Stepper, Tableau, TimeGrid, VectorField, integrate};
 
@@ -90,6 +90,16 @@ fn rkmk_orders_on_the_symmetric_top() {
     check_orders(&mut SymmetricTop::default(), &Method::ALL);
 }
 
+#[test]
+fn lie_orders_on_the_se3_screw_pair() {
+    check_orders(&mut ScrewPair::default(), &Method::ALL);
+}
+
+#[test]
+fn rkmk_orders_on_the_propelled_top_on_se3_times_r3() {
+    check_orders(&mut PropelledTop::default(), &Method::ALL);
+}
+
 /// The fake tableau of ode-lie.md §2.1: RK4's stability polynomial, but order 2.
 fn fake_rk4() -> Tableau {
     let (z, one) = (R::ZERO, R::ONE);
@@ -162,6 +172,24 @@ fn one_step_on_dahlquist_equals_the_stability_polynomial() {
 }
 
 #[test]
+fn lie_methods_are_exact_for_a_constant_world_twist() {
+    let mut p = ConstantTwist::<f64>::default();
+    let t_end = p.t_end;
+    let mut exact = [0.0; 7];
+    p.exact(t_end, &mut exact);
+    for m in Method::ALL {
+        for n in [1, 3, 10, 100] {
+            let mut st = Stepper::new(m, p.layout());
+            let mut y = [0.0; 7];
+            p.initial_state(&mut y);
+            integrate(&mut p, &mut st, &TimeGrid::uniform(0.0, t_end, n), &mut y);
+            let e = p.error(&y, &exact);
+            assert!(e < 1e-13, "{m} N={n}: error {e:e} for a constant twist");
+        }
+    }
+}
+
+#[test]
 fn lie_methods_are_exact_for_a_constant_world_rate() {
     let mut p = ConstantRate::<f64>::default();
     let t_end = p.t_end;
@@ -197,10 +225,11 @@ fn forward_then_backward_returns_within_h_to_the_p() {
         integrate(p, &mut st, &TimeGrid::uniform(t1, 0.0, n), &mut y);
         state_distance(&layout, &y, &y0)
     }
-    let problems: [(&str, Box<dyn ExactProblem<f64>>); 3] = [
+    let problems: [(&str, Box<dyn ExactProblem<f64>>); 4] = [
         ("logistic", Box::new(Logistic::default())),
         ("problem K", Box::new(ProblemK)),
         ("symmetric top", Box::new(SymmetricTop::default())),
+        ("screw pair", Box::new(ScrewPair::default())),
     ];
     for (name, mut p) in problems {
         for m in Method::ALL {

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 #[test]
 fn verify_every_reference_file() {
     let files = oracle_files();
-    assert!(files.len() >= 9, "reference files found: {files:?}");
+    assert!(files.len() >= 10, "reference files found: {files:?}");
     let mut kinds = Vec::new();
     for f in &files {
         let report = verify_file(f).unwrap_or_else(|e| panic!("{e}"));
@@ -30,6 +30,7 @@ fn verify_every_reference_file() {
         Kind::Raster,
         Kind::Ode,
         Kind::So3,
+        Kind::Se3,
         Kind::Metrics,
     ] {
         assert!(kinds.contains(&k), "no {k} file among the reference files");
@@ -104,6 +105,16 @@ fn unknown_and_malformed_files_give_errors_naming_them() {
         "{msg}"
     );
 
+    // A wrong shape in an SE(3) file.
+    let mut v = load("se3_shared_cases.json");
+    v["cases"][2]["Jl"] = json!([[1.0, 0.0], [0.0, 1.0]]);
+    let e = verify_value(Path::new("se3shape.json"), &v).expect_err("wrong shape");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("se3shape.json") && msg.contains("cases[2].Jl") && msg.contains("[6, 6]"),
+        "{msg}"
+    );
+
     // An unknown ODE method is a failing row, not an error and not skipped.
     let mut v = load("ode_shared_linear_seed0.json");
     v["case"]["runs"][0]["results"][0]["method"] = json!("dopri5");
@@ -118,7 +129,7 @@ fn unknown_and_malformed_files_give_errors_naming_them() {
 #[test]
 fn a_wrong_reference_value_fails_its_row() {
     // The checks can fail: perturb one reference number per kind beyond its tolerance.
-    let cases: [(&str, &[&str], f64); 5] = [
+    let cases: [(&str, &[&str], f64); 6] = [
         (
             "projection_shared_case03.json",
             &["case", "outputs", "means_cam"],
@@ -131,6 +142,7 @@ fn a_wrong_reference_value_fails_its_row() {
         ),
         ("ode_shared_mlp_seed0.json", &["case", "runs"], 1e-9),
         ("so3_shared_cases.json", &["rotvec_cases"], 1e-12),
+        ("se3_shared_cases.json", &["cases"], 1e-11),
         ("metrics_shared_cases.json", &["cases"], 1e-11),
     ];
     for (file, path, delta) in cases {
@@ -175,6 +187,9 @@ fn first_number(v: &mut Value) -> Option<&mut Value> {
                 "q",
                 "omega",
                 "dt",
+                "xi",
+                "other_xi",
+                "point",
             ];
             o.iter_mut()
                 .filter(|(k, _)| !skip.contains(&k.as_str()))

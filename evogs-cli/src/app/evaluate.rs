@@ -21,17 +21,19 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
     }
     let a: f64 = p[0].trim().parse().map_err(|_| bad())?;
     let b: f64 = p[1].trim().parse().map_err(|_| bad())?;
-    if a > b {
+    if !a.is_finite() || !b.is_finite() || a > b {
         return Err(bad());
     }
     Ok((a, b))
 }
 
-/// Runs `evogs eval` and writes the metrics file; returns the metrics and the file.
-/// `data` and `format` override the run's dataset folder and layout.
+/// Runs `evogs eval` and writes the metrics file (`RUN/metrics-<split>.json`, or
+/// `RUN/metrics-<split>-tA-B.json` for a time range, which the file also records); returns
+/// the metrics and the file. `data` and `format` override the run's dataset folder and
+/// layout.
 ///
 /// # Errors
-/// Unreadable run or data, an empty split.
+/// Unreadable run or data, an empty split, a time range that selects no frame.
 pub fn evaluate_run(
     run: &Path,
     split: SplitName,
@@ -60,6 +62,21 @@ pub fn evaluate_run(
             split.as_str()
         )));
     }
+    if let Some((a, b)) = range
+        && !views.iter().any(|v| v.time >= a && v.time <= b)
+    {
+        let (lo, hi) = views
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(x, y), v| {
+                (x.min(v.time), y.max(v.time))
+            });
+        return Err(CommandError(format!(
+            "--time-range {a}:{b} selects none of the {} `{}` frames (their times lie in \
+             [{lo}, {hi}])",
+            views.len(),
+            split.as_str()
+        )));
+    }
     let mut model = l.model;
     model.field.set_par(Par::best());
     rep.start(&format!("evaluate {}", split.as_str()), views.len() as u64);
@@ -76,7 +93,13 @@ pub fn evaluate_run(
     rep.finish();
     m.iterations = l.archive.meta["iteration"].as_u64().unwrap_or(0);
     m.train_seconds = l.archive.meta["train_seconds"].as_f64().unwrap_or(0.0);
-    let path = folder.metrics(split.as_str());
+    m.time_range = range.map(|(a, b)| [a, b]);
+    // A restricted evaluation gets its own file, beside (not over) the whole split's.
+    let name = match range {
+        Some((a, b)) => format!("{}-t{a}-{b}", split.as_str()),
+        None => split.as_str().to_string(),
+    };
+    let path = folder.metrics(&name);
     std::fs::write(&path, serde_json::to_string_pretty(&m).unwrap_or_default())
         .map_err(|e| CommandError(format!("{}: {e}", path.display())))?;
     Ok((m, path))

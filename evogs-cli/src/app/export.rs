@@ -59,6 +59,9 @@ pub fn export(run: &Path, t: f64, out: &Path) -> Result<usize, CommandError> {
     let l = checkpoint::load_model(&RunFolder::new(run).checkpoint())
         .map_err(CommandError::from_display)?;
     let mut model = l.model;
+    model
+        .check_time(t)
+        .map_err(|e| CommandError(format!("--time: {e}")))?;
     let mut s = Splats::default();
     let mut stepper = None;
     let _tape = model.splats_at(t, &mut stepper, &mut s);

@@ -169,6 +169,11 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<Vec<PathBuf>,
         Mask::Weights(_) => Vec3::zero(),
     };
     let (a, b, count) = args.times;
+    for t in [a, b] {
+        model
+            .check_time(t)
+            .map_err(|e| CommandError(format!("--times: {e}")))?;
+    }
     let cams = path_cameras(&args.camera, &ds, &model, count)?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| CommandError(format!("{}: cannot create: {e}", args.out.display())))?;

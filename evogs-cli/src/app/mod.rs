@@ -5,6 +5,7 @@
 pub mod evaluate;
 pub mod export;
 pub mod inject;
+pub mod interrupt;
 pub mod paths;
 pub mod plot;
 pub mod render;

@@ -47,6 +47,40 @@ impl RunFolder {
     pub fn data_ref(&self) -> PathBuf {
         self.dir.join("data.txt")
     }
+    /// Removes what a training run leaves in the folder (checkpoint, configuration, dataset
+    /// record, log, curve, metrics, renders, study record), before `--force` trains anew;
+    /// other files are left alone.
+    ///
+    /// # Errors
+    /// A file that cannot be removed (named).
+    pub fn clear(&self) -> Result<(), String> {
+        let Ok(entries) = std::fs::read_dir(&self.dir) else {
+            return Ok(());
+        };
+        for e in entries.flatten() {
+            let p = e.path();
+            let name = e.file_name().to_string_lossy().into_owned();
+            let ours = matches!(
+                name.as_str(),
+                "checkpoint.bin"
+                    | "config.toml"
+                    | "data.txt"
+                    | "log.csv"
+                    | "curve.png"
+                    | "study-run.json"
+            ) || (name.starts_with("metrics-") && name.ends_with(".json"));
+            let res = if name == "render" && p.is_dir() {
+                std::fs::remove_dir_all(&p)
+            } else if ours {
+                std::fs::remove_file(&p)
+            } else {
+                Ok(())
+            };
+            res.map_err(|err| format!("{}: cannot remove for --force: {err}", p.display()))?;
+        }
+        Ok(())
+    }
+
     /// The dataset folder recorded by `evogs train`.
     ///
     /// # Errors

@@ -289,6 +289,11 @@ pub fn render_sequence(
     };
     let background = [1.0, 1.0, 1.0];
     let (a, b, n) = args.times;
+    for t in [a, b] {
+        model
+            .check_time(t)
+            .map_err(|e| CommandError(format!("--times: {e}")))?;
+    }
     let cams = path_cameras(&args.camera, ds, model, n)?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| CommandError(format!("{}: cannot create: {e}", args.out.display())))?;

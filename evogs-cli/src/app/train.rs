@@ -3,7 +3,7 @@
 
 use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
-use super::{Reporter, plot};
+use super::{Reporter, interrupt, plot};
 use crate::config::{Protocol, ScheduleConfig, TrainConfig};
 use crate::data::{DataFormat, Dataset, LoadOptions, SplitName};
 use crate::eval::{SplitMetrics, evaluate};
@@ -53,6 +53,8 @@ pub struct TrainArgs {
     pub format: Option<DataFormat>,
     /// Continue from the run folder's checkpoint.
     pub resume: bool,
+    /// Replace a run already in the folder (its checkpoint, log, curve, metrics, renders).
+    pub force: bool,
     /// Skip the final evaluation and GIF (tests).
     pub skip_outputs: bool,
 }
@@ -236,6 +238,18 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             run.checkpoint().display()
         )));
     }
+    if args.resume && args.force {
+        return Err(CommandError(
+            "--resume continues the run in the folder and --force replaces it: pass one".into(),
+        ));
+    }
+    if !args.resume && run.checkpoint().is_file() && !args.force {
+        return Err(CommandError(format!(
+            "{}: the folder holds a trained run (checkpoint.bin); pass --resume to continue \
+             it or --force to replace it",
+            run.dir.display()
+        )));
+    }
     let mut cfg = if resuming {
         let text = std::fs::read_to_string(run.config())
             .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?;
@@ -279,6 +293,9 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         ds.format,
         frames_note(&ds, &cfg)
     ));
+    if args.force && !args.resume {
+        run.clear().map_err(CommandError)?;
+    }
     std::fs::create_dir_all(&run.dir).map_err(|e| {
         CommandError(format!(
             "{}: cannot create the run folder: {e}",
@@ -308,6 +325,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
     t.cfg.orbit_search = cfg.orbit_search.clone();
     rep.start("train", t.cfg.schedule.iterations);
     rep.progress(t.iteration, "");
+    let mut last_save = std::time::Instant::now();
     while !t.finished() {
         if t.orbit_search_due() {
             rep.info(&format!("iteration {}: orbit search", t.iteration));
@@ -337,8 +355,25 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             ),
         );
         let every = t.cfg.schedule.checkpoint_every;
-        if every > 0 && t.iteration % every == 0 {
+        let minutes = t.cfg.schedule.checkpoint_minutes;
+        if (every > 0 && t.iteration % every == 0)
+            || (minutes > 0.0 && last_save.elapsed().as_secs_f64() >= 60.0 * minutes)
+        {
             save_all(&t, &run)?;
+            last_save = std::time::Instant::now();
+        }
+        if interrupt::requested() && !t.finished() {
+            save_all(&t, &run)?;
+            rep.finish();
+            interrupt::clear();
+            return Err(CommandError(format!(
+                "interrupted at iteration {} of {}: checkpoint written to {}; continue with \
+                 `evogs train --out {} --resume`",
+                t.iteration,
+                t.cfg.schedule.iterations,
+                run.checkpoint().display(),
+                run.dir.display()
+            )));
         }
     }
     save_all(&t, &run)?;

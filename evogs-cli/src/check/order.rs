@@ -6,10 +6,14 @@
 //! Errors are the largest state distance to the exact solution at eight sample times
 //! ([`convergence_study`]). The asymmetric top has no closed form: its error is the drift of
 //! the spatial angular momentum `R·I·ω` (a conserved quantity that sees attitude errors),
-//! which converges at the method's order. A constant world rate is integrated exactly by
-//! every exp-based (RKMK) method, so its errors sit at rounding and have no clean range: the
-//! verdict there is "exact" (every error below the accumulated rounding bound
-//! [`exact_tol`]`(N) = 4·N·ε`).
+//! which converges at the method's order. A constant world rate (SO(3)) or twist (SE(3)) is
+//! integrated exactly by every exp-based (RKMK) method, so its errors sit at rounding and
+//! have no clean range: the verdict there is "exact" (every error below the accumulated
+//! rounding bound [`exact_tol`]`(N) = 4·N·ε`).
+//!
+//! On SE(3) ([`ScrewPair`]: a state-dependent, time-varying world twist; [`PropelledTop`]:
+//! SE(3) × ℝ³) the expected orders are the tableau's: Lie–Euler 1, RKMK midpoint and Heun 2,
+//! RKMK4 and the 3/8 rule 4.
 //!
 //! Verdicts: `|fitted − nominal| ≤ ORDER_TOL` ([`ORDER_TOL`] = 0.15). In the printed
 //! tables `order` is the successive order `ln(e_{k−1}/e_k)/ln(h_{k−1}/h_k)` and `*` marks
@@ -18,8 +22,8 @@
 use core::fmt;
 use evogs_ode::order::{ConvergenceStudy, convergence_study, estimate_order, successive_orders};
 use evogs_ode::problems::{
-    AsymmetricTop, ConstantRate, CosGrowth, ExactProblem, HarmonicOscillator, Logistic, ProblemK,
-    RotatingDecay, SymmetricTop,
+    AsymmetricTop, ConstantRate, ConstantTwist, CosGrowth, ExactProblem, HarmonicOscillator,
+    Logistic, ProblemK, PropelledTop, RotatingDecay, ScrewPair, SymmetricTop,
 };
 use evogs_ode::{Method, Stepper, TimeGrid, VectorField, integrate};
 
@@ -39,7 +43,7 @@ pub fn exact_tol(n: usize) -> f64 {
 }
 
 /// The problems, by name (as `--problem` takes them).
-pub const PROBLEMS: [&str; 8] = [
+pub const PROBLEMS: [&str; 11] = [
     "logistic",
     "cos-growth",
     "harmonic-oscillator",
@@ -48,7 +52,13 @@ pub const PROBLEMS: [&str; 8] = [
     "problem-k",
     "symmetric-top",
     "asymmetric-top",
+    "se3-constant-twist",
+    "se3-screw-pair",
+    "se3-propelled-top",
 ];
+
+/// The problems that every exp-based method integrates exactly (verdict "exact").
+const EXACT: [&str; 2] = ["so3-constant-rate", "se3-constant-twist"];
 
 /// What a study should show.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -133,6 +143,9 @@ fn study(problem: &str, method: Method) -> Option<ConvergenceStudy> {
         "problem-k" => Box::new(ProblemK),
         "symmetric-top" => Box::new(SymmetricTop::default()),
         "asymmetric-top" => return Some(asymmetric_top(method)),
+        "se3-constant-twist" => Box::new(ConstantTwist::default()),
+        "se3-screw-pair" => Box::new(ScrewPair::default()),
+        "se3-propelled-top" => Box::new(PropelledTop::default()),
         _ => return None,
     };
     Some(convergence_study(p.as_mut(), method, &ns))
@@ -160,7 +173,7 @@ pub fn check_order(
             let Some(study) = study(name, *m) else {
                 continue;
             };
-            let expect = if *name == "so3-constant-rate" {
+            let expect = if EXACT.contains(name) {
                 Expect::Exact
             } else {
                 Expect::Order(m.order())

@@ -183,6 +183,7 @@ impl TrainConfig {
                 iterations: 25_000,
                 sh_degree_interval: 1000,
                 checkpoint_every: 5000,
+                checkpoint_minutes: 5.0,
                 log_every: 50,
                 snapshot_every: 500,
                 warmup_time_window: 1.0,
@@ -358,6 +359,10 @@ impl TrainConfig {
                 self.data.split_time
             ));
         }
+        nonneg(
+            "schedule.checkpoint_minutes",
+            self.schedule.checkpoint_minutes,
+        )?;
         positive("init.random_extent", self.init.random_extent)?;
         nonneg("init.aabb_margin", self.init.aabb_margin)?;
         if self.init.random_points == 0 {

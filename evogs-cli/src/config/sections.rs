@@ -209,6 +209,9 @@ pub struct ScheduleConfig {
     pub sh_degree_interval: u64,
     /// Iterations between checkpoints (0: only at the end).
     pub checkpoint_every: u64,
+    /// Minutes of training between checkpoints besides `checkpoint_every` (0: none), so a
+    /// run killed without warning loses at most this much work.
+    pub checkpoint_minutes: f64,
     /// Iterations between log lines.
     pub log_every: u64,
     /// Iterations between refreshes of snapshot anchors.

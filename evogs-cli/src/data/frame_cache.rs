@@ -63,6 +63,10 @@ pub struct CacheStats {
 enum Slot {
     Ready { image: Arc<Image<f32>>, used: u64 },
     Decoding,
+    #[cfg_attr(
+        not(feature = "rayon"),
+        allow(dead_code, reason = "only background decodes (rayon) leave a failure behind")
+    )]
     Failed(String),
 }
 
@@ -88,7 +92,11 @@ impl Shared {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
-    /// Stores a decode's result and wakes the waiters.
+    /// Stores a background decode's result and wakes the waiters.
+    #[cfg_attr(
+        not(feature = "rayon"),
+        allow(dead_code, reason = "background decodes need rayon")
+    )]
     fn finish(&self, i: usize, bytes: usize, result: Result<Image<f32>, String>) {
         let mut st = self.lock();
         match result {

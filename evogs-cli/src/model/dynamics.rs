@@ -26,6 +26,10 @@ use evogs_splat::{Splats, SplatsGrad};
 /// Tangent entries per Gaussian.
 const TANGENT: usize = 9;
 
+/// How far outside its trained time range a model is evaluated, in multiples of that range
+/// ([`Model::check_time`]).
+pub const MAX_EXTRAPOLATION: f64 = 10.0;
+
 /// What [`Model::backward_at`] needs from the forward pass of one frame.
 #[derive(Debug)]
 pub enum FrameTape<T> {
@@ -114,6 +118,31 @@ impl<T: Gemm> Model<T> {
             out.means[i] = p;
             out.quats[i] = q;
             out.log_scales[i] = s;
+        }
+    }
+
+    /// Checks that the model can be evaluated at `t` in bounded time and memory: `t` is
+    /// finite and lies within [`MAX_EXTRAPOLATION`] times the anchors' time range of that
+    /// range (from 0.25 to 0.75 that is [−4.75, 5.75]). A velocity model integrates from the
+    /// nearest anchor in steps of at most `max_step`, so a time far outside would take
+    /// unbounded work (and keep every step for the way back).
+    ///
+    /// # Errors
+    /// A message naming the time and the accepted interval.
+    pub fn check_time(&self, t: f64) -> Result<(), String> {
+        let (a, b) = match (self.anchor_times.first(), self.anchor_times.last()) {
+            (Some(&a), Some(&b)) => (a, b),
+            _ => (0.0, 1.0),
+        };
+        let span = if b > a { b - a } else { 1.0 };
+        let (lo, hi) = (a - MAX_EXTRAPOLATION * span, b + MAX_EXTRAPOLATION * span);
+        if t.is_finite() && t >= lo && t <= hi {
+            Ok(())
+        } else {
+            Err(format!(
+                "time {t} is outside [{lo}, {hi}], the times this model can be evaluated at \
+                 ({MAX_EXTRAPOLATION} times its trained range [{a}, {b}] on either side)"
+            ))
         }
     }
 

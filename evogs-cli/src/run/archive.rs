@@ -2,8 +2,13 @@
 //! atomically (temporary file, fsync, rename): the checkpoint format.
 //!
 //! Layout: `b"EVOGSCK1"`, a little-endian `u64` header length, the UTF-8 JSON header
-//! `{"meta": …, "arrays": [{"name", "kind", "len"}…]}`, then the arrays' little-endian bytes
-//! in header order.
+//! `{"meta": …, "arrays": [{"name", "kind", "len"}…], "meta_f64_bits": […]}`, then the
+//! arrays' little-endian bytes in header order.
+//!
+//! `meta_f64_bits` holds the bit pattern of every floating-point number of `meta`, in the
+//! order of a depth-first walk, and reading puts them back: JSON text parsed by `serde_json`'s
+//! default (fast, not correctly rounded) parser can come back an ulp off, which would make a
+//! resumed run drift from an uninterrupted one.
 
 use serde_json::{Value, json};
 use std::path::Path;
@@ -100,8 +105,12 @@ impl Archive {
         for (n, d) in &self.u64s {
             arrays.push(json!({"name": n, "kind": "u64", "len": d.len()}));
         }
-        let header =
-            serde_json::to_vec(&json!({"meta": self.meta, "arrays": arrays})).unwrap_or_default();
+        let mut bits = Vec::new();
+        visit_floats(&mut self.meta.clone(), &mut |x| bits.push(x.to_bits()));
+        let header = serde_json::to_vec(
+            &json!({"meta": self.meta, "arrays": arrays, "meta_f64_bits": bits}),
+        )
+        .unwrap_or_default();
         let mut buf = Vec::with_capacity(
             16 + header.len() + self.f32s.iter().map(|(_, d)| 4 * d.len()).sum::<usize>(),
         );
@@ -155,7 +164,23 @@ impl Archive {
                 .ok_or_else(|| corrupt("truncated header"))?,
         )
         .map_err(|_| corrupt("header JSON"))?;
-        let mut ar = Self::new(header["meta"].clone());
+        let mut meta = header["meta"].clone();
+        if let Some(bits) = header["meta_f64_bits"].as_array() {
+            let bits: Vec<u64> = bits
+                .iter()
+                .map(|b| b.as_u64().ok_or_else(|| corrupt("metadata float bits")))
+                .collect::<Result<_, _>>()?;
+            let mut next = bits.iter();
+            let mut missing = false;
+            visit_floats(&mut meta, &mut |x| match next.next() {
+                Some(&b) => *x = f64::from_bits(b),
+                None => missing = true,
+            });
+            if missing || next.next().is_some() {
+                return Err(corrupt("metadata float bits do not match the metadata"));
+            }
+        }
+        let mut ar = Self::new(meta);
         let mut off = 16 + hl;
         for a in header["arrays"]
             .as_array()
@@ -199,6 +224,24 @@ impl Archive {
     }
 }
 
+/// Calls `f` on every floating-point number of `v` (not integers), depth first, in the
+/// order of the map's keys and the arrays' elements, and stores what `f` leaves.
+fn visit_floats(v: &mut Value, f: &mut impl FnMut(&mut f64)) {
+    match v {
+        Value::Number(n) if n.is_f64() => {
+            if let Some(mut x) = n.as_f64() {
+                f(&mut x);
+                if let Some(m) = serde_json::Number::from_f64(x) {
+                    *n = m;
+                }
+            }
+        }
+        Value::Array(a) => a.iter_mut().for_each(|x| visit_floats(x, f)),
+        Value::Object(o) => o.values_mut().for_each(|x| visit_floats(x, f)),
+        _ => {}
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -218,6 +261,54 @@ mod tests {
         bytes.truncate(bytes.len() - 3);
         std::fs::write(&p, bytes).expect("write");
         assert!(Archive::read(&p).is_err(), "truncated file rejected");
+        std::fs::remove_dir_all(dir).ok();
+    }
+
+    /// Metadata floats come back bit for bit, including values that `serde_json`'s default
+    /// parser reads an ulp off (the test finds such values among random ones and checks that
+    /// some are there, so it would fail if the bit patterns were not used).
+    #[test]
+    fn metadata_floats_round_trip_exactly() {
+        let mut rng = evogs_math::rng::SplitMix64::new(7);
+        let xs: Vec<f64> = (0..4000)
+            .map(|_| {
+                let u = rng.next_f64();
+                (u - 0.5) * 10f64.powi(i32::try_from(rng.next_u64() % 12).unwrap_or(0) - 6)
+            })
+            .collect();
+        let misread = xs
+            .iter()
+            .filter(|x| {
+                let back: f64 =
+                    serde_json::from_str(&serde_json::to_string(x).expect("json")).expect("parse");
+                back.to_bits() != x.to_bits()
+            })
+            .count();
+        assert!(
+            misread > 0,
+            "plain JSON reads some of these floats an ulp off"
+        );
+        let dir = std::env::temp_dir().join(format!("evogs-ar-bits-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("tmp");
+        let p = dir.join("c.bin");
+        let a = Archive::new(json!({"aabb": [xs[..3], xs[3..6]], "n": 3, "all": xs, "t": 0.25}));
+        a.write(&p).expect("write");
+        let b = Archive::read(&p).expect("read");
+        let back: Vec<f64> = b.meta["all"]
+            .as_array()
+            .expect("array")
+            .iter()
+            .map(|v| v.as_f64().expect("float"))
+            .collect();
+        assert!(
+            back.iter()
+                .zip(&xs)
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "{misread} of {} floats would drift through plain JSON; none may here",
+            xs.len()
+        );
+        assert_eq!(a, b, "the whole metadata");
+        assert_eq!(b.meta["n"].as_u64(), Some(3), "integers stay integers");
         std::fs::remove_dir_all(dir).ok();
     }
 }

@@ -8,6 +8,7 @@
 //! | projection | `case.inputs.viewmat` and `case.outputs.conics`, no `case.loss` | `project`, `project_vjp` |
 //! | ode | `case.runs[].results` | `integrate_trajectory`, `discrete_adjoint`, `continuous_adjoint` |
 //! | so3 | `rotvec_cases` | `so3`, `so3_jacobians`, `so3_coeffs`, `update` |
+//! | se3 | `cases[].xi` | `Se3`, `se3`, `se3_jacobians` |
 //! | metrics | `cases[].ssim_3dgs` | `metrics`, `SsimWorkspace`, [`metrics::ssim_skimage`] |
 //!
 //! Every quantity of a file gets a [`Row`] (aggregated over the file's cases, naming the
@@ -32,6 +33,7 @@ mod projection;
 mod raster;
 mod report;
 mod scene;
+mod se3;
 mod so3;
 
 pub use json::Malformed;
@@ -64,8 +66,8 @@ pub enum VerifyError {
     #[error(
         "{}: not a known reference-vector file (top-level keys: {found}); expected \
          `case.loss.W_rgb` (raster), `case.inputs.viewmat` with `case.outputs.conics` \
-         (projection), `case.runs[].results` (ode), `rotvec_cases` (so3) or \
-         `cases[].ssim_3dgs` (metrics)",
+         (projection), `case.runs[].results` (ode), `rotvec_cases` (so3), `cases[].xi` \
+         (se3) or `cases[].ssim_3dgs` (metrics)",
         path.display()
     )]
     UnknownKind {
@@ -111,6 +113,9 @@ pub fn detect_kind(v: &Value) -> Option<Kind> {
     if v.get("rotvec_cases").is_some() {
         return Some(Kind::So3);
     }
+    if has(first(v.get("cases")), "xi") {
+        return Some(Kind::Se3);
+    }
     if has(first(v.get("cases")), "ssim_3dgs") {
         return Some(Kind::Metrics);
     }
@@ -138,6 +143,7 @@ pub fn verify_value(path: &Path, v: &Value) -> Result<FileReport, VerifyError> {
         Kind::Raster => raster::verify(&root),
         Kind::Ode => ode::verify(&root),
         Kind::So3 => so3::verify(&root),
+        Kind::Se3 => se3::verify(&root),
         Kind::Metrics => metrics::verify(&root),
     };
     let (cases, mut rows) = result.map_err(|detail| VerifyError::Malformed {

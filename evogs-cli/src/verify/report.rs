@@ -92,6 +92,8 @@ pub enum Kind {
     Ode,
     /// `so3_*`: exp/log maps, Jacobians and quaternion updates.
     So3,
+    /// `se3_*`: SE(3) exp/log, Jacobians, adjoints, inverse, composition and action.
+    Se3,
     /// `metrics_*`: MSE, PSNR, SSIM (3DGS and scikit-image) and the SSIM gradient.
     Metrics,
 }
@@ -103,6 +105,7 @@ impl fmt::Display for Kind {
             Self::Raster => "raster",
             Self::Ode => "ode",
             Self::So3 => "so3",
+            Self::Se3 => "se3",
             Self::Metrics => "metrics",
         })
     }

@@ -1,7 +1,7 @@
 //! `approx` trait impls (`AbsDiffEq`, `RelativeEq`, `UlpsEq`) for f32 and f64 types,
 //! comparing entry by entry.
 
-use crate::{Mat3, Quat, Vec2, Vec3};
+use crate::{Mat3, Mat6, Quat, Vec2, Vec3, Vec6};
 use approx::{AbsDiffEq, RelativeEq, UlpsEq};
 
 macro_rules! approx_impls {
@@ -72,6 +72,10 @@ approx_impls!(Quat, f32, |s| s.to_array());
 approx_impls!(Quat, f64, |s| s.to_array());
 approx_impls!(Mat3, f32, |s| s.to_flat());
 approx_impls!(Mat3, f64, |s| s.to_flat());
+approx_impls!(Vec6, f32, |s| s.to_array());
+approx_impls!(Vec6, f64, |s| s.to_array());
+approx_impls!(Mat6, f32, |s| s.m.as_flattened());
+approx_impls!(Mat6, f64, |s| s.m.as_flattened());
 
 #[cfg(test)]
 mod tests {

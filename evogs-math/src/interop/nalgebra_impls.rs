@@ -1,6 +1,6 @@
 //! nalgebra interop: `From` conversions both ways, generic over the scalar.
 
-use crate::{Mat3, Quat, Real, Vec2, Vec3};
+use crate::{Mat3, Quat, Real, Se3, So3, Vec2, Vec3};
 
 impl<T: Real + nalgebra::Scalar> From<nalgebra::Vector2<T>> for Vec2<T> {
     fn from(v: nalgebra::Vector2<T>) -> Self {
@@ -52,10 +52,27 @@ impl<T: Real + nalgebra::Scalar> From<Mat3<T>> for nalgebra::Matrix3<T> {
     }
 }
 
+/// An `Isometry3` (unit quaternion and translation) is an SE(3) transform: the same
+/// `p ↦ R p + t`. The quaternion is copied as it is (nalgebra keeps it unit).
+impl<T: Real + nalgebra::Scalar> From<nalgebra::Isometry3<T>> for Se3<T> {
+    fn from(m: nalgebra::Isometry3<T>) -> Self {
+        let q = Quat::from(m.rotation.into_inner());
+        Self::from_parts(So3::from_unit_quat(q), Vec3::from(m.translation.vector))
+    }
+}
+impl<T: Real + nalgebra::Scalar> From<Se3<T>> for nalgebra::Isometry3<T> {
+    fn from(x: Se3<T>) -> Self {
+        Self {
+            rotation: nalgebra::Unit::new_unchecked(nalgebra::Quaternion::from(x.quat())),
+            translation: nalgebra::Translation3::from(nalgebra::Vector3::from(x.translation())),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use crate::so3::{exp_matrix, exp_quat};
-    use crate::{Mat3, Quat, Vec3};
+    use crate::{Mat3, Quat, Se3, Vec3, Vec6};
 
     #[test]
     fn round_trips() {
@@ -71,6 +88,26 @@ mod tests {
         let nm = nalgebra::Matrix3::from(m);
         assert!((nm[(1, 0)] - 4.0).abs() < 1e-16, "row 1, col 0");
         assert_eq!(Mat3::from(nm), m, "mat3 round trip");
+    }
+
+    #[test]
+    fn isometry_round_trip_and_same_action() {
+        let x = Se3::exp(Vec6::from_array([0.4_f64, -1.1, 0.7, 0.9, -0.3, 1.6]));
+        let iso = nalgebra::Isometry3::from(x);
+        assert_eq!(Se3::from(iso), x, "isometry round trip");
+        let p = Vec3::new(0.3, -2.0, 1.25);
+        let theirs: Vec3<f64> = (iso * nalgebra::Point3::from(nalgebra::Vector3::from(p)))
+            .coords
+            .into();
+        assert!((theirs - x.act(p)).norm() < 1e-15, "same action on points");
+        let composed = Se3::from(iso * iso.inverse() * iso);
+        assert!((composed.log() - x.log()).norm() < 1e-14, "composition");
+        let xf = x.cast::<f32>();
+        assert_eq!(
+            Se3::from(nalgebra::Isometry3::from(xf)),
+            xf,
+            "f32 round trip"
+        );
     }
 
     #[test]

@@ -3,9 +3,9 @@
 //!
 //! Every problem is a [`VectorField`] (generic over the scalar, so it also runs in dual
 //! numbers) with an initial state, an end time and an exact solution ([`ExactProblem`]).
-//! Errors are measured with [`state_distance`]: the Euclidean norm on Euclidean blocks and
-//! the rotation angle `|Log(R_exactᵀR)|` on SO(3) blocks (sign-agnostic: `q` and `−q` are
-//! the same rotation).
+//! Errors are measured with [`state_distance`]: the Euclidean norm on Euclidean blocks, the
+//! rotation angle `|Log(R_exactᵀR)|` on SO(3) blocks (sign-agnostic: `q` and `−q` are the
+//! same rotation), and that angle together with the translation distance on SE(3) blocks.
 //!
 //! | problem | layout | why |
 //! |---|---|---|
@@ -17,6 +17,9 @@
 //! | [`ProblemK`] `R = Rz(a(t))Rx(b(t))` | SO(3) | non-commuting rates: separates orders |
 //! | [`SymmetricTop`] | SO(3) × ℝ³ | attitude and rates coupled, closed form |
 //! | [`AsymmetricTop`] | SO(3) × ℝ³ | invariants only (energy, \|L\|², spatial L) |
+//! | [`ConstantTwist`] `Ṫ = ξ̂T` | SE(3) | Lie methods must be exact |
+//! | [`ScrewPair`] `T = T₀Exp(a(t)ξ₁)Exp(b(t)ξ₂)` | SE(3) | state-dependent, time-varying twist: separates orders |
+//! | [`PropelledTop`] | SE(3) × ℝ³ | symmetric top moving along its axis, closed form |
 //! | [`DissipativePair`] | ℝ² | stiff decay: breaks the backsolve continuous adjoint |
 //!
 //! Methods of an order p show slope p on each of them (see [`crate::order`]); a linear
@@ -26,6 +29,7 @@ mod linear;
 mod oscillator;
 mod rotation;
 mod scalar;
+mod se3;
 mod stiff;
 mod top;
 
@@ -33,6 +37,7 @@ pub use linear::RotatingDecay;
 pub use oscillator::HarmonicOscillator;
 pub use rotation::{ConstantRate, ProblemK};
 pub use scalar::{CosGrowth, Logistic};
+pub use se3::{ConstantTwist, PropelledTop, ScrewPair};
 pub use stiff::DissipativePair;
 pub use top::{AsymmetricTop, RigidBody, SymmetricTop};
 
@@ -65,9 +70,10 @@ pub trait ExactProblem<T: Real>: VectorField<T> {
     }
 }
 
-/// The distance of two states: `sqrt(Σ |Δx|² + Σ angle²)` over the Euclidean entries and
-/// the SO(3) blocks, with `angle = |Log(q_bᵀ·q_a)|` (quaternions of any non-zero norm;
-/// `q` and `−q` are the same rotation).
+/// The distance of two states: `sqrt(Σ |Δx|² + Σ angle² + Σ (angle² + |Δt|²))` over the
+/// Euclidean entries, the SO(3) blocks and the SE(3) blocks, with
+/// `angle = |Log(q_bᵀ·q_a)|` (quaternions of any non-zero norm; `q` and `−q` are the same
+/// rotation) and `Δt` the difference of the translations.
 ///
 /// ```
 /// use evogs_ode::{Block, StateLayout, problems::state_distance};
@@ -90,10 +96,15 @@ pub fn state_distance<T: Real>(layout: &StateLayout, a: &[T], b: &[T]) -> T {
                         acc += (a[e] - b[e]).sq();
                     }
                 }
-                Block::So3 => {
+                Block::So3 | Block::Se3 => {
                     let qa = Quat::from_slice(&a[o..]);
                     let qb = Quat::from_slice(&b[o..]);
                     acc += log_quat(qb.conj().mul_quat(qa)).norm_squared();
+                    if sp.block == Block::Se3 {
+                        for e in o + 4..o + 7 {
+                            acc += (a[e] - b[e]).sq();
+                        }
+                    }
                 }
             }
         }

@@ -9,7 +9,7 @@ use alloc::vec::Vec;
 use evogs_math::so3::exp_quat;
 use evogs_math::so3_coeffs::{one_minus_cos_over_sq, theta_minus_sin_over_cube};
 use evogs_math::so3_jacobians::jl_inv_mul;
-use evogs_math::{Par, Quat, Real, Vec3};
+use evogs_math::{Par, Quat, Real, Se3, Vec3, Vec6, se3_jacobians};
 
 /// The per-particle block pattern with its offsets (`Copy`, for the chunk kernels).
 #[derive(Clone, Copy, Debug)]
@@ -92,6 +92,12 @@ impl<T: Real> Combo<T> {
         }
         acc
     }
+
+    /// `Σ w_j K_j` for the 6-vector at entry `e`.
+    #[inline]
+    fn vec6(&self, k: &[T], n: usize, e: usize) -> Vec6<T> {
+        Vec6::new(self.vec3(k, n, e), self.vec3(k, n, e + 3))
+    }
 }
 
 /// `Jl(Ω)ᵀ v = v − A·Ω×v + B·Ω×(Ω×v)` with `A = (1 − cos θ)/θ²`, `B = (θ − sin θ)/θ³`.
@@ -118,12 +124,13 @@ struct AdjointBuffers<T> {
 }
 
 /// An explicit Runge–Kutta stepper (Euclidean blocks) that is simultaneously the
-/// left-trivialised RKMK method with the same tableau (SO(3) blocks).
+/// left-trivialised RKMK method with the same tableau (SO(3) and SE(3) blocks).
 ///
 /// Conventions: states are ambient (`StateLayout::ambient_len`, SO(3) blocks as unit
-/// quaternions w, x, y, z); derivatives and cotangents are tangent (`tangent_len`, SO(3)
-/// blocks as world-frame 3-vectors, cotangents with respect to the left perturbation
-/// `R ↦ Exp(δ)·R`).
+/// quaternions w, x, y, z, SE(3) blocks as the quaternion then the translation);
+/// derivatives and cotangents are tangent (`tangent_len`, SO(3) blocks as world-frame
+/// 3-vectors, SE(3) blocks as world-frame twists (ρ, φ), cotangents with respect to the left
+/// perturbations `R ↦ Exp(δ)·R` and `T ↦ Exp(δ)·T`).
 ///
 /// For a step from `(tₙ, yₙ)` with step `h` (negative backward in time), stage `i` is
 ///
@@ -131,6 +138,8 @@ struct AdjointBuffers<T> {
 /// Euclidean block:  Ωᵢ = h Σ_{j<i} a_ij Kⱼ,   Xᵢ = yₙ + Ωᵢ,         Kᵢ = f(tₙ + cᵢh, Xᵢ)
 /// SO(3) block:      Ωᵢ = h Σ_{j<i} a_ij Kⱼ,   Rᵢ = Exp(Ωᵢ)·Rₙ,      ωᵢ = f(tₙ + cᵢh, Xᵢ)
 ///                                                                  Kᵢ = Jl⁻¹(Ωᵢ)·ωᵢ
+/// SE(3) block:      the SO(3) rule with Exp, Jl⁻¹ of SE(3) (Ωᵢ, Kᵢ twists (ρ, φ)):
+///                   Tᵢ = Exp(Ωᵢ)·Tₙ,  Kᵢ = Jl⁻¹(Ωᵢ)·ξᵢ,  T_{n+1} = Exp(h Σ bᵢKᵢ)·Tₙ
 /// update:           y_{n+1} = yₙ + h Σ bᵢKᵢ;   R_{n+1} = Exp(h Σ bᵢKᵢ)·Rₙ, then |q| ← 1
 /// ```
 ///
@@ -140,7 +149,9 @@ struct AdjointBuffers<T> {
 /// `Jl⁻¹` has the closed form `I − ½Ω̂ + D(θ)Ω̂²` (ode-lie.md §2.5), so no commutator
 /// series is truncated and the method keeps the tableau's order (HLW Thm IV.8.5). With the
 /// Euler tableau it is Lie–Euler `R ← Exp(hω)R`; with classical RK4 it is RKMK4. Both are
-/// exact (to rounding) for a constant rate.
+/// exact (to rounding) for a constant rate. On SE(3) the same holds with the world twist
+/// (`Ṫ = ξ̂T`) and the closed-form SE(3) `Jl⁻¹` ([`evogs_math::se3_jacobians`]), so the
+/// methods keep their orders on SE(3) and on products with vector spaces.
 ///
 /// The stepper owns every stage buffer: forward steps allocate nothing. The buffers of
 /// the reverse pass ([`Stepper::step_vjp`]) are allocated on its first call and reused.
@@ -331,13 +342,20 @@ impl<T: Real> Stepper<T> {
                             let q = Quat::from_slice(&ya[sp.ambient..]);
                             exp_quat(big).mul_quat(q).write_to(&mut xa[sp.ambient..]);
                         }
+                        Block::Se3 => {
+                            let big = combo.vec6(k, n, gt + sp.tangent) * h;
+                            big.write_to(&mut oa[sp.tangent..]);
+                            let t = Se3::exp(big) * Se3::from_slice(&ya[sp.ambient..]);
+                            t.write_to(&mut xa[sp.ambient..]);
+                        }
                     }
                 }
             }
         });
     }
 
-    /// `Kᵢ ← Jl⁻¹(Ωᵢ)·Kᵢ` on SO(3) entries (stage `i > 0`; `Ω₀ = 0` is the identity).
+    /// `Kᵢ ← Jl⁻¹(Ωᵢ)·Kᵢ` on SO(3) and SE(3) entries (stage `i > 0`; `Ω₀ = 0` is the
+    /// identity).
     fn dexp_inv(&mut self, i: usize) {
         if self.euclidean {
             return;
@@ -357,17 +375,26 @@ impl<T: Real> Stepper<T> {
             for p in 0..np {
                 let gt = (p0 + p) * pat.pt;
                 for sp in pat.spans() {
-                    if sp.block == Block::So3 {
-                        let e = p * pat.pt + sp.tangent;
-                        let big = Vec3::from_slice(&omega[gt + sp.tangent..]);
-                        jl_inv_mul(big, Vec3::from_slice(&kc[e..])).write_to(&mut kc[e..]);
+                    let e = p * pat.pt + sp.tangent;
+                    match sp.block {
+                        Block::Euclidean(_) => {}
+                        Block::So3 => {
+                            let big = Vec3::from_slice(&omega[gt + sp.tangent..]);
+                            jl_inv_mul(big, Vec3::from_slice(&kc[e..])).write_to(&mut kc[e..]);
+                        }
+                        Block::Se3 => {
+                            let big = Vec6::from_slice(&omega[gt + sp.tangent..]);
+                            se3_jacobians::jl_inv_mul(big, Vec6::from_slice(&kc[e..]))
+                                .write_to(&mut kc[e..]);
+                        }
                     }
                 }
             }
         });
     }
 
-    /// `y ← yₙ + h Σ bᵢKᵢ` (Euclidean), `R ← Exp(h Σ bᵢKᵢ)·R` then `|q| ← 1` (SO(3)).
+    /// `y ← yₙ + h Σ bᵢKᵢ` (Euclidean), `R ← Exp(h Σ bᵢKᵢ)·R` then `|q| ← 1` (SO(3)),
+    /// `T ← Exp(h Σ bᵢKᵢ)·T` then `|q| ← 1` (SE(3)).
     fn update(&mut self, h: T, y: &mut [T]) {
         let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
         let (pat, n, k) = (self.pat, self.n, &self.k);
@@ -398,6 +425,11 @@ impl<T: Real> Stepper<T> {
                                 .mul_quat(q)
                                 .normalize()
                                 .write_to(&mut ya[sp.ambient..]);
+                        }
+                        Block::Se3 => {
+                            let big = combo.vec6(k, n, gt + sp.tangent) * h;
+                            let t = Se3::exp(big) * Se3::from_slice(&ya[sp.ambient..]);
+                            t.renormalize().write_to(&mut ya[sp.ambient..]);
                         }
                     }
                 }

@@ -6,7 +6,7 @@ use crate::{Block, VectorField};
 use alloc::vec;
 use evogs_math::so3::exp_quat;
 use evogs_math::so3_jacobians::jl_inv_mul_vjp;
-use evogs_math::{Real, Vec3};
+use evogs_math::{Real, Se3, Vec3, Vec6, se3_jacobians};
 
 impl<T: Real> Stepper<T> {
     /// The exact VJP of one [`step`](Self::step) from `(t, y_n)` with step `h`.
@@ -24,19 +24,23 @@ impl<T: Real> Stepper<T> {
     /// ```text
     /// update      Euclidean:  Ω̄ = λ                        (λₙ starts as λ)
     ///             SO(3):      Ω̄ = Jl(Ω)ᵀλ,  λₙ starts as Exp(Ω)ᵀλ      (Ω = h Σ bᵢKᵢ)
+    ///             SE(3):      Ω̄ = Jl(Ω)ᵀλ,  λₙ starts as Ad(Exp(Ω))ᵀλ
     ///             K̄ᵢ = h bᵢ Ω̄ for every stage
     /// stage i = s..1:
     ///   field     Euclidean:  ω̄ᵢ = K̄ᵢ
-    ///             SO(3):      (Ω̄ᵢ, ω̄ᵢ) = VJP of Jl⁻¹(Ωᵢ)·ωᵢ at K̄ᵢ
+    ///             SO(3), SE(3): (Ω̄ᵢ, ω̄ᵢ) = VJP of Jl⁻¹(Ωᵢ)·ωᵢ at K̄ᵢ
     ///             X̄ᵢ = (∂f/∂X)ᵀ ω̄ᵢ  and  θ̄ += (∂f/∂θ)ᵀ ω̄ᵢ   (one field VJP at (tₙ + cᵢh, Xᵢ))
     ///   state     Euclidean:  λₙ += X̄ᵢ,            Ω̄ᵢ = X̄ᵢ
     ///             SO(3):      λₙ += Exp(Ωᵢ)ᵀX̄ᵢ,    Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ
+    ///             SE(3):      λₙ += Ad(Exp(Ωᵢ))ᵀX̄ᵢ, Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ
     ///   coupling  K̄ⱼ += h a_ij Ω̄ᵢ  for j < i
     /// ```
     ///
     /// The SO(3) rules come from linearising `R' = Exp(Ω)·R` with left perturbations:
     /// `Exp(Ω + dΩ)·Exp(δ)·R = Exp(Jl(Ω)dΩ + Exp(Ω)δ)·Exp(Ω)·R + O(2)`, using
-    /// `Exp(Ω + dΩ) ≈ Exp(Jl(Ω)dΩ)·Exp(Ω)` and `Exp(Ω)·Exp(δ)·Exp(Ω)ᵀ = Exp(Exp(Ω)δ)`.
+    /// `Exp(Ω + dΩ) ≈ Exp(Jl(Ω)dΩ)·Exp(Ω)` and `Exp(Ω)·Exp(δ)·Exp(Ω)ᵀ = Exp(Exp(Ω)δ)`. On SE(3)
+    /// the same linearisation holds with the SE(3) Jacobian and
+    /// `Exp(Ω)·Exp(δ)·Exp(Ω)⁻¹ = Exp(Ad(Exp(Ω))δ)` (`docs/se3.md`).
     ///
     /// The stage values are recomputed from the stored `yₙ` with the same code as the
     /// forward step (bitwise the same stages), so only states need to be stored.
@@ -149,8 +153,8 @@ impl<T: Real> Stepper<T> {
         }
     }
 
-    /// Transposes the update: `λ ← Exp(Ω)ᵀλ` and `Ω̄ = Jl(Ω)ᵀλ` on SO(3) blocks, `Ω̄ = λ`
-    /// on Euclidean ones; then `K̄ᵢ = h bᵢ Ω̄`.
+    /// Transposes the update: `λ ← Exp(Ω)ᵀλ` (SO(3)) or `λ ← Ad(Exp(Ω))ᵀλ` (SE(3)) and
+    /// `Ω̄ = Jl(Ω)ᵀλ` on Lie-group blocks, `Ω̄ = λ` on Euclidean ones; then `K̄ᵢ = h bᵢ Ω̄`.
     fn update_vjp(&mut self, h: T, lambda: &mut [T]) {
         let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
         let (pat, n, k) = (self.pat, self.n, &self.k);
@@ -177,6 +181,12 @@ impl<T: Real> Stepper<T> {
                                 jl_tr_mul(big, l).write_to(&mut oc[e..]);
                                 exp_quat(big).rotate_inv(l).write_to(&mut lc[e..]);
                             }
+                            Block::Se3 => {
+                                let big = combo.vec6(k, n, gt + sp.tangent) * h;
+                                let l = Vec6::from_slice(&lc[e..]);
+                                se3_jacobians::jl_tr_mul(big, l).write_to(&mut oc[e..]);
+                                Se3::exp(big).adjoint_tr_mul(l).write_to(&mut lc[e..]);
+                            }
                         }
                     }
                 }
@@ -194,7 +204,7 @@ impl<T: Real> Stepper<T> {
     }
 
     /// The cotangent of the field output at stage `i`: `K̄ᵢ` on Euclidean entries, and on
-    /// SO(3) entries `ω̄ᵢ` with `Ω̄ᵢ` (into `obar`) from the VJP of `Jl⁻¹(Ωᵢ)·ωᵢ`.
+    /// SO(3) and SE(3) entries `ω̄ᵢ` with `Ω̄ᵢ` (into `obar`) from the VJP of `Jl⁻¹(Ωᵢ)·ωᵢ`.
     fn stage_field_cotangent(&mut self, i: usize) {
         let (pat, n) = (self.pat, self.n);
         let (omega, f, kbar) = (&self.omega, &self.adj.f, &self.adj.kbar);
@@ -224,6 +234,15 @@ impl<T: Real> Stepper<T> {
                                 d_omega.write_to(&mut wc[e..]);
                                 d_big.write_to(&mut oc[e..]);
                             }
+                            Block::Se3 => {
+                                let (d_big, d_xi) = se3_jacobians::jl_inv_mul_vjp(
+                                    Vec6::from_slice(&omega[ge..]),
+                                    Vec6::from_slice(&f[i * n + ge..]),
+                                    Vec6::from_slice(&kbar[i * n + ge..]),
+                                );
+                                d_xi.write_to(&mut wc[e..]);
+                                d_big.write_to(&mut oc[e..]);
+                            }
                         }
                     }
                 }
@@ -232,7 +251,8 @@ impl<T: Real> Stepper<T> {
     }
 
     /// Transposes `Xᵢ = yₙ ⊕ Ωᵢ`: `λ += X̄ᵢ`, `Ω̄ᵢ = X̄ᵢ` (Euclidean);
-    /// `λ += Exp(Ωᵢ)ᵀX̄ᵢ`, `Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ` (SO(3)).
+    /// `λ += Exp(Ωᵢ)ᵀX̄ᵢ`, `Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ` (SO(3));
+    /// `λ += Ad(Exp(Ωᵢ))ᵀX̄ᵢ`, `Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ` (SE(3)).
     fn stage_state_vjp(&mut self, lambda: &mut [T]) {
         let pat = self.pat;
         let (omega, xbar) = (&self.omega, &self.adj.xbar);
@@ -263,6 +283,12 @@ impl<T: Real> Stepper<T> {
                                 l.write_to(&mut lc[e..]);
                                 let o = Vec3::from_slice(&oc[e..]) + jl_tr_mul(big, xb);
                                 o.write_to(&mut oc[e..]);
+                            }
+                            Block::Se3 => {
+                                let big = Vec6::from_slice(&omega[ge..]);
+                                let xb = Vec6::from_slice(&xbar[ge..]);
+                                Se3::exp(big).adjoint_tr_mul(xb).add_to(&mut lc[e..]);
+                                se3_jacobians::jl_tr_mul(big, xb).add_to(&mut oc[e..]);
                             }
                         }
                     }

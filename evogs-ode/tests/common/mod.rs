@@ -1,10 +1,10 @@
-//! Shared test helpers: a parameterised particle field with SO(3) blocks, tangent-space
-//! perturbations of states, and linear losses with their cotangents.
+//! Shared test helpers: parameterised particle fields with SO(3) and SE(3) blocks,
+//! tangent-space perturbations of states, and losses with their cotangents.
 #![allow(dead_code, reason = "each test binary uses a subset of the helpers")]
 
 use evogs_math::rng::SplitMix64;
 use evogs_math::so3::exp_quat;
-use evogs_math::{Quat, Real, Vec3};
+use evogs_math::{Quat, Real, Se3, Vec3, Vec6};
 use evogs_ode::{Block, StateLayout, VectorField};
 
 /// A coupled particle field on `[Euclidean(3) p, So3 R, Euclidean(2) s] × count`:
@@ -25,6 +25,22 @@ pub(crate) struct CoupledField<T> {
 
 pub(crate) const N_THETA: usize = 44;
 
+/// Seeded parameters of the coupled test fields: entries from 42 on (decay rates) in
+/// [0.2, 1), the rest in [−0.6, 0.6).
+fn random_theta<T: Real>(n: usize, seed: u64) -> Vec<T> {
+    let mut rng = SplitMix64::new(seed);
+    (0..n)
+        .map(|i| {
+            let v = if i >= 42 {
+                rng.uniform(0.2, 1.0)
+            } else {
+                rng.uniform(-0.6, 0.6)
+            };
+            T::from_f64(v)
+        })
+        .collect()
+}
+
 fn mat<T: Real>(th: &[T], k: usize) -> evogs_math::Mat3<T> {
     let m = &th[9 * k..9 * k + 9];
     evogs_math::Mat3::from_rows([[m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]])
@@ -32,19 +48,10 @@ fn mat<T: Real>(th: &[T], k: usize) -> evogs_math::Mat3<T> {
 
 impl<T: Real> CoupledField<T> {
     pub(crate) fn random(count: usize, seed: u64) -> Self {
-        let mut rng = SplitMix64::new(seed);
-        let theta = (0..N_THETA)
-            .map(|i| {
-                // Decay rates k positive, the rest of either sign.
-                let v = if i >= 42 {
-                    rng.uniform(0.2, 1.0)
-                } else {
-                    rng.uniform(-0.6, 0.6)
-                };
-                T::from_f64(v)
-            })
-            .collect();
-        Self { theta, count }
+        Self {
+            theta: random_theta(N_THETA, seed),
+            count,
+        }
     }
 
     pub(crate) fn layout_for(count: usize) -> StateLayout {
@@ -131,6 +138,139 @@ impl<T: Real> VectorField<T> for CoupledField<T> {
     }
 }
 
+/// A coupled particle field on `[Euclidean(2) s, Se3 T = (R, c), Euclidean(3) v] × count`,
+/// returning the world twist (ρ, φ) for T:
+///
+/// ```text
+/// s' = (c_x, c_y) − s
+/// ρ  = A tanh(c) + B (R e_z) + t u
+/// φ  = C v + D (R e_x) + sin(t) e
+/// v' = −κ ⊙ v + R e_y + c × v
+/// θ  = [A, B, C, D (3×3 row-major), u, e, κ (3)]   (45 entries, shared by particles)
+/// ```
+///
+/// Every block depends on the transform (rotation and translation), and the twist on the
+/// translation, the rotation and the Euclidean state.
+#[derive(Clone, Debug)]
+pub(crate) struct CoupledSe3Field<T> {
+    pub(crate) theta: Vec<T>,
+    pub(crate) count: usize,
+}
+
+pub(crate) const N_THETA_SE3: usize = 45;
+
+impl<T: Real> CoupledSe3Field<T> {
+    pub(crate) fn random(count: usize, seed: u64) -> Self {
+        Self {
+            theta: random_theta(N_THETA_SE3, seed),
+            count,
+        }
+    }
+
+    pub(crate) fn layout_for(count: usize) -> StateLayout {
+        StateLayout::particles(
+            &[Block::Euclidean(2), Block::Se3, Block::Euclidean(3)],
+            count,
+        )
+    }
+}
+
+impl<T: Real> VectorField<T> for CoupledSe3Field<T> {
+    fn dim(&self) -> usize {
+        11 * self.count
+    }
+    fn layout(&self) -> StateLayout {
+        Self::layout_for(self.count)
+    }
+    fn n_params(&self) -> usize {
+        N_THETA_SE3
+    }
+    fn eval(&mut self, t: T, y: &[T], dydt: &mut [T]) {
+        let th = &self.theta;
+        let (a, b, c, d) = (mat(th, 0), mat(th, 1), mat(th, 2), mat(th, 3));
+        let (u, e, kappa) = (
+            Vec3::from_slice(&th[36..]),
+            Vec3::from_slice(&th[39..]),
+            Vec3::from_slice(&th[42..]),
+        );
+        for i in 0..self.count {
+            let ys = &y[12 * i..];
+            let out = &mut dydt[11 * i..];
+            let x = Se3::from_slice(&ys[2..]);
+            let (pos, v) = (x.translation(), Vec3::from_slice(&ys[9..]));
+            let r = x.rotation();
+            let (gx, gy, gz) = (
+                r.act(Vec3::unit(0)),
+                r.act(Vec3::unit(1)),
+                r.act(Vec3::unit(2)),
+            );
+            out[0] = pos.x - ys[0];
+            out[1] = pos.y - ys[1];
+            let rho = a.mul_vec(pos.map(Real::tanh)) + b.mul_vec(gz) + u * t;
+            let phi = c.mul_vec(v) + d.mul_vec(gx) + e * t.sin();
+            Vec6::new(rho, phi).write_to(&mut out[2..]);
+            (gy - v.mul_elem(kappa) + pos.cross(v)).write_to(&mut out[8..]);
+        }
+    }
+    fn vjp(&mut self, t: T, y: &[T], w: &[T], d_y: &mut [T], d_params: &mut [T]) {
+        let th = &self.theta;
+        let (a, b, c, d) = (mat(th, 0), mat(th, 1), mat(th, 2), mat(th, 3));
+        let kappa = Vec3::from_slice(&th[42..]);
+        for i in 0..self.count {
+            let ys = &y[12 * i..];
+            let ws = &w[11 * i..];
+            let dy = &mut d_y[11 * i..];
+            let x = Se3::from_slice(&ys[2..]);
+            let (pos, v) = (x.translation(), Vec3::from_slice(&ys[9..]));
+            let r = x.rotation();
+            let (gx, gy, gz) = (
+                r.act(Vec3::unit(0)),
+                r.act(Vec3::unit(1)),
+                r.act(Vec3::unit(2)),
+            );
+            let tp = pos.map(Real::tanh);
+            let (w_rho, w_phi, w_v) = (
+                Vec3::from_slice(&ws[2..]),
+                Vec3::from_slice(&ws[5..]),
+                Vec3::from_slice(&ws[8..]),
+            );
+            // s' = (c_x, c_y) − s.
+            dy[0] -= ws[0];
+            dy[1] -= ws[1];
+            // Gradient with respect to the position c, and the rotation part (R a ↦ δ × R a).
+            let g_pos = Vec3::new(ws[0], ws[1], T::ZERO)
+                + a.tr_mul_vec(w_rho).mul_elem(tp.map(|z| T::ONE - z * z))
+                + v.cross(w_v);
+            let g_rot =
+                gz.cross(b.tr_mul_vec(w_rho)) + gx.cross(d.tr_mul_vec(w_phi)) + gy.cross(w_v);
+            // c ↦ c + δ_ρ + δ_φ × c under Exp(δ)·T.
+            Vec6::new(g_pos, g_rot + pos.cross(g_pos)).add_to(&mut dy[2..]);
+            (c.tr_mul_vec(w_phi) - w_v.mul_elem(kappa) + w_v.cross(pos)).add_to(&mut dy[8..]);
+            for row in 0..3 {
+                for col in 0..3 {
+                    d_params[row * 3 + col] += w_rho[row] * tp[col];
+                    d_params[9 + row * 3 + col] += w_rho[row] * gz[col];
+                    d_params[18 + row * 3 + col] += w_phi[row] * v[col];
+                    d_params[27 + row * 3 + col] += w_phi[row] * gx[col];
+                }
+            }
+            (w_rho * t).add_to(&mut d_params[36..]);
+            (w_phi * t.sin()).add_to(&mut d_params[39..]);
+            (-v.mul_elem(w_v)).add_to(&mut d_params[42..]);
+        }
+    }
+}
+
+/// A random unit quaternion from a rotation vector with components in [−2, 2).
+fn random_rotation(rng: &mut SplitMix64) -> Quat<f64> {
+    let phi = Vec3::new(
+        rng.uniform(-2.0, 2.0),
+        rng.uniform(-2.0, 2.0),
+        rng.uniform(-2.0, 2.0),
+    );
+    exp_quat(phi)
+}
+
 /// A random state for a layout: Euclidean entries in [−1, 1), random unit quaternions.
 pub(crate) fn random_state(layout: &StateLayout, seed: u64) -> Vec<f64> {
     let mut rng = SplitMix64::new(seed);
@@ -145,13 +285,12 @@ pub(crate) fn random_state(layout: &StateLayout, seed: u64) -> Vec<f64> {
                         *v = rng.uniform(-1.0, 1.0);
                     }
                 }
-                Block::So3 => {
-                    let phi = Vec3::new(
-                        rng.uniform(-2.0, 2.0),
-                        rng.uniform(-2.0, 2.0),
-                        rng.uniform(-2.0, 2.0),
-                    );
-                    exp_quat(phi).write_to(&mut y[o..]);
+                Block::So3 => random_rotation(&mut rng).write_to(&mut y[o..]),
+                Block::Se3 => {
+                    random_rotation(&mut rng).write_to(&mut y[o..]);
+                    for v in &mut y[o + 4..o + 7] {
+                        *v = rng.uniform(-1.0, 1.0);
+                    }
                 }
             }
         }
@@ -159,7 +298,8 @@ pub(crate) fn random_state(layout: &StateLayout, seed: u64) -> Vec<f64> {
     y
 }
 
-/// `y ⊕ v`: `y + v` on Euclidean entries, `Exp(v)·R` on SO(3) blocks (v tangent).
+/// `y ⊕ v`: `y + v` on Euclidean entries, `Exp(v)·R` on SO(3) and `Exp(v)·T` on SE(3)
+/// blocks (v tangent).
 pub(crate) fn retract<T: Real>(layout: &StateLayout, y: &[T], v: &[T]) -> Vec<T> {
     let mut out = y.to_vec();
     let (pa, pt) = (layout.particle_ambient_len(), layout.particle_tangent_len());
@@ -178,14 +318,16 @@ pub(crate) fn retract<T: Real>(layout: &StateLayout, y: &[T], v: &[T]) -> Vec<T>
                         .mul_quat(q)
                         .write_to(&mut out[o..]);
                 }
+                Block::Se3 => (Se3::exp(Vec6::from_slice(&v[ot..])) * Se3::from_slice(&y[o..]))
+                    .write_to(&mut out[o..]),
             }
         }
     }
     out
 }
 
-/// A linear loss in the state: `Σ c_e y_e` over Euclidean entries plus `Σ aᵀ R b` over
-/// SO(3) blocks, with fixed seeded weights.
+/// A loss in the state: `Σ c_e y_e` over Euclidean entries, `Σ aᵀ R b` over SO(3) blocks
+/// and `Σ aᵀ (T·b)` over SE(3) blocks, with fixed seeded weights.
 #[derive(Clone, Debug)]
 pub(crate) struct Loss {
     layout: StateLayout,
@@ -236,6 +378,14 @@ impl Loss {
                         let k = p * nb + bi;
                         acc += self.a[k].dot(q.rotate(self.b[k]));
                     }
+                    Block::Se3 => {
+                        let x = Se3::from_quat_translation(
+                            Quat::from_slice(&y[o..]),
+                            Vec3::from_slice(&y[o + 4..]),
+                        );
+                        let k = p * nb + bi;
+                        acc += self.a[k].dot(x.act(self.b[k]));
+                    }
                 }
             }
         }
@@ -243,7 +393,8 @@ impl Loss {
     }
 
     /// `∂L/∂y` in tangent coordinates: `c` on Euclidean entries, `(R b) × a` on SO(3)
-    /// blocks (left perturbation: `aᵀ Exp(δ) R b ≈ aᵀRb + δ·((Rb) × a)`).
+    /// blocks (left perturbation: `aᵀ Exp(δ) R b ≈ aᵀRb + δ·((Rb) × a)`), and
+    /// `(a, (T b) × a)` on SE(3) blocks ([`evogs_math::se3::act_vjp`]).
     pub(crate) fn gradient(&self, y: &[f64]) -> Vec<f64> {
         let (pa, pt, nb) = (
             self.layout.particle_ambient_len(),
@@ -260,6 +411,15 @@ impl Loss {
                         let q = Quat::from_slice(&y[o..]);
                         let k = p * nb + bi;
                         q.rotate(self.b[k]).cross(self.a[k]).write_to(&mut g[ot..]);
+                    }
+                    Block::Se3 => {
+                        let k = p * nb + bi;
+                        let (d_x, _) = evogs_math::se3::act_vjp(
+                            Se3::from_slice(&y[o..]),
+                            self.b[k],
+                            self.a[k],
+                        );
+                        d_x.write_to(&mut g[ot..]);
                     }
                 }
             }

@@ -1,17 +1,19 @@
 //! evogs-ode: [`Stepper::step_vjp`] for every method, on the reference MLP field (a
-//! Euclidean state in R³) and on the torque-free rigid body (an SO(3) block and R³, RKMK).
+//! Euclidean state in R³), on the torque-free rigid body (an SO(3) block and R³, RKMK) and on
+//! the propelled symmetric top (an SE(3) block and R³, RKMK).
 //!
 //! Inputs are `[δ, θ]`: a tangent perturbation of the initial state (`Exp(δ)·R` on SO(3),
-//! `y + δ` elsewhere) and the field parameters; the output is the final state in the local
-//! coordinates of the unperturbed result (`log(R₁ R̄₁ᵀ)` on SO(3)), so that the step's
-//! tangent cotangents are exactly what central differences measure at `δ = 0`.
+//! `Exp(δ)·T` on SE(3), `y + δ` elsewhere) and the field parameters; the output is the final
+//! state in the local coordinates of the unperturbed result (`log(R₁ R̄₁ᵀ)` on SO(3),
+//! `Log(T₁ T̄₁⁻¹)` on SE(3)), so that the step's tangent cotangents are exactly what central
+//! differences measure at `δ = 0`.
 
 use super::{GradRow, Kernel, kernel_reports, uniform};
 use evogs_math::rng::SplitMix64;
 use evogs_math::so3::{exp_quat, log_quat};
-use evogs_math::{Quat, Real, Vec3};
+use evogs_math::{Quat, Real, Se3, Vec3, Vec6};
 use evogs_ode::fields::Mlp;
-use evogs_ode::problems::RigidBody;
+use evogs_ode::problems::{PropelledTop, RigidBody};
 use evogs_ode::{Block, Method, StateLayout, Stepper};
 
 const HIDDEN: usize = 8;
@@ -23,6 +25,16 @@ enum FieldKind {
     Mlp,
     /// `RigidBody` (parameters: the principal moments).
     RigidBody,
+    /// `PropelledTop` (parameters: the principal moments and the axial speed).
+    PropelledTop,
+}
+
+/// The propelled top with parameters `[I₁, I₂, I₃, u]`.
+fn propelled<T: Real>(theta: &[T]) -> PropelledTop<T> {
+    let mut p = PropelledTop::default();
+    p.top.body.inertia = Vec3::from_slice(theta);
+    p.speed = theta[3];
+    p
 }
 
 impl FieldKind {
@@ -30,6 +42,7 @@ impl FieldKind {
         match self {
             Self::Mlp => Mlp::<f64>::param_count(3, HIDDEN),
             Self::RigidBody => 3,
+            Self::PropelledTop => 4,
         }
     }
 
@@ -37,6 +50,7 @@ impl FieldKind {
         match self {
             Self::Mlp => StateLayout::particles(&[Block::Euclidean(3)], 1),
             Self::RigidBody => StateLayout::particles(&[Block::So3, Block::Euclidean(3)], 1),
+            Self::PropelledTop => StateLayout::particles(&[Block::Se3, Block::Euclidean(3)], 1),
         }
     }
 
@@ -54,6 +68,7 @@ impl FieldKind {
                 h,
                 y,
             ),
+            Self::PropelledTop => st.step(&mut propelled(theta), t, h, y),
         }
     }
 
@@ -79,11 +94,12 @@ impl FieldKind {
                 };
                 st.step_vjp(&mut f, t, h, y, lambda, d_theta);
             }
+            Self::PropelledTop => st.step_vjp(&mut propelled(theta), t, h, y, lambda, d_theta),
         }
     }
 }
 
-/// `y ⊕ v`: `Exp(v)·R` on SO(3) blocks, `y + v` elsewhere.
+/// `y ⊕ v`: `Exp(v)·R` on SO(3) blocks, `Exp(v)·T` on SE(3) blocks, `y + v` elsewhere.
 fn retract<T: Real>(layout: &StateLayout, y: &[T], v: &[T], out: &mut [T]) {
     out.copy_from_slice(y);
     for sp in layout.spans() {
@@ -97,11 +113,14 @@ fn retract<T: Real>(layout: &StateLayout, y: &[T], v: &[T], out: &mut [T]) {
             Block::So3 => exp_quat(Vec3::from_slice(&v[ot..]))
                 .mul_quat(Quat::from_slice(&y[o..]))
                 .write_to(&mut out[o..]),
+            Block::Se3 => (Se3::exp(Vec6::from_slice(&v[ot..])) * Se3::from_slice(&y[o..]))
+                .write_to(&mut out[o..]),
         }
     }
 }
 
-/// Local coordinates of `y` around `base`: `log(R R̄ᵀ)` on SO(3), `y − ȳ` elsewhere.
+/// Local coordinates of `y` around `base`: `log(R R̄ᵀ)` on SO(3), `Log(T T̄⁻¹)` on SE(3),
+/// `y − ȳ` elsewhere.
 fn local<T: Real>(layout: &StateLayout, y: &[T], base: &[T], out: &mut [T]) {
     for sp in layout.spans() {
         let (o, ot) = (sp.ambient, sp.tangent);
@@ -115,6 +134,9 @@ fn local<T: Real>(layout: &StateLayout, y: &[T], base: &[T], out: &mut [T]) {
                 let r = Quat::from_slice(&y[o..]).mul_quat(Quat::from_slice(&base[o..]).conj());
                 log_quat(r).write_to(&mut out[ot..]);
             }
+            Block::Se3 => (Se3::from_slice(&y[o..]) * Se3::from_slice(&base[o..]).inverse())
+                .log()
+                .write_to(&mut out[ot..]),
         }
     }
 }
@@ -186,7 +208,11 @@ impl Kernel for StepKernel {
 
 pub(super) fn rows() -> Vec<GradRow> {
     let mut out = Vec::new();
-    for kind in [FieldKind::Mlp, FieldKind::RigidBody] {
+    for kind in [
+        FieldKind::Mlp,
+        FieldKind::RigidBody,
+        FieldKind::PropelledTop,
+    ] {
         for (mi, method) in Method::ALL.into_iter().enumerate() {
             let mut rng = SplitMix64::new(0x0de0 + 31 * mi as u64);
             let mut reports = Vec::new();
@@ -203,6 +229,15 @@ pub(super) fn rows() -> Vec<GradRow> {
                         y.extend(uniform(&mut rng, 3, -1.5, 1.5));
                         (y, uniform(&mut rng, 3, 0.8, 3.0))
                     }
+                    FieldKind::PropelledTop => {
+                        let xi = Vec6::from_slice(&uniform(&mut rng, 6, -1.5, 1.5));
+                        let mut y = vec![0.0; 7];
+                        Se3::exp(xi).write_to(&mut y);
+                        y.extend(uniform(&mut rng, 3, -1.5, 1.5));
+                        let mut theta = uniform(&mut rng, 3, 0.8, 3.0);
+                        theta.extend(uniform(&mut rng, 1, -1.0, 1.0));
+                        (y, theta)
+                    }
                 };
                 let (t, h) = (rng.uniform(-0.5, 0.5), rng.uniform(-0.4, 0.4));
                 let k = StepKernel::new(method, kind, y0, &theta, t, h);
@@ -215,6 +250,7 @@ pub(super) fn rows() -> Vec<GradRow> {
             let what = match kind {
                 FieldKind::Mlp => "MLP, R³",
                 FieldKind::RigidBody => "rigid body, SO(3) × R³",
+                FieldKind::PropelledTop => "propelled top, SE(3) × R³",
             };
             out.push(GradRow::from_reports(
                 &format!("ode: step_vjp {method} ({what})"),
