@@ -59,8 +59,8 @@ impl DataFormat {
             }),
             (false, false) => Err(DataError::Invalid {
                 path: root.display().to_string(),
-                msg: "not a dataset: no transforms_train.json (D-NeRF layout) and no \
-                      poses_bounds.npy (N3DV layout: poses_bounds.npy and camXX/images/*.png)"
+                msg: "not a dataset: transforms_train.json (D-NeRF layout) and \
+                      poses_bounds.npy (N3DV layout, with camXX/images/*.png) are both missing"
                     .into(),
             }),
         }
