@@ -61,11 +61,17 @@ pub struct CacheStats {
 
 #[derive(Debug)]
 enum Slot {
-    Ready { image: Arc<Image<f32>>, used: u64 },
+    Ready {
+        image: Arc<Image<f32>>,
+        used: u64,
+    },
     Decoding,
     #[cfg_attr(
         not(feature = "rayon"),
-        allow(dead_code, reason = "only background decodes (rayon) leave a failure behind")
+        allow(
+            dead_code,
+            reason = "only background decodes (rayon) leave a failure behind"
+        )
     )]
     Failed(String),
 }
