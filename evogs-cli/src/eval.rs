@@ -72,7 +72,7 @@ pub fn render_frame(
 /// Evaluates `views` (optionally only those with `t` in `range`).
 ///
 /// # Errors
-/// A view without an image or with a bad camera.
+/// An image that cannot be decoded, or a bad camera.
 pub fn evaluate(
     model: &mut Model<f32>,
     views: &[View],
@@ -89,10 +89,12 @@ pub fn evaluate(
     evaluate_views(model, &selected, split, background, par, progress)
 }
 
-/// Evaluates the given views (any selection, e.g. a study's held-out set), in order.
+/// Evaluates the given views (any selection, e.g. a study's held-out set), in order. Views
+/// loaded without their image are decoded one at a time, so a split larger than memory is
+/// evaluated in the memory of one frame.
 ///
 /// # Errors
-/// A view without an image or with a bad camera.
+/// An image that cannot be decoded, or a bad camera.
 pub fn evaluate_views(
     model: &mut Model<f32>,
     selected: &[&View],
@@ -105,10 +107,8 @@ pub fn evaluate_views(
     let mut ws = SsimWorkspace::default();
     let mut scratch = Splats::default();
     for (i, v) in selected.iter().enumerate() {
-        let target = v
-            .image
-            .as_ref()
-            .ok_or_else(|| format!("{}: image not loaded", v.file.display()))?;
+        let target = v.image_or_decode().map_err(|e| e.to_string())?;
+        let target = target.as_ref();
         let cam: PinholeCamera<f32> = view_camera(v)?;
         let img = render_frame(model, &cam, v.time, background, par, &mut scratch);
         let m = f64::from(mse(&img, target));

@@ -12,7 +12,7 @@ use evogs_cli::app::train::{TrainArgs, train};
 use evogs_cli::check::grad::check_grad;
 use evogs_cli::check::order::{Expect, check_order};
 use evogs_cli::config::Protocol;
-use evogs_cli::data::SplitName;
+use evogs_cli::data::{DataFormat, SplitName};
 use evogs_cli::model::Motion;
 use evogs_cli::verify::{LEGEND, verify_file};
 use evogs_ode::Method;
@@ -33,9 +33,13 @@ enum Cmd {
     /// Train a dynamic scene (default: the shipped toys-mini scene) and end with test metrics
     /// and a GIF.
     Train {
-        /// D-NeRF dataset folder (default: data/toys-mini shipped with evogs).
+        /// Dataset folder, D-NeRF or N3DV layout (default: data/toys-mini shipped with evogs).
         #[arg(long)]
         data: Option<PathBuf>,
+        /// Dataset layout: auto (default: `transforms_train.json` is D-NeRF,
+        /// `poses_bounds.npy` is N3DV), dnerf or n3dv.
+        #[arg(long)]
+        format: Option<DataFormat>,
         /// Run folder (config, checkpoints, log, curve, metrics, renders).
         #[arg(long, default_value = "runs/latest")]
         out: PathBuf,
@@ -125,6 +129,10 @@ enum Cmd {
         /// Dataset folder (default: the run's).
         #[arg(long)]
         data: Option<PathBuf>,
+        /// Dataset layout: auto, dnerf or n3dv (default: the run's, recognised from the
+        /// folder).
+        #[arg(long)]
+        format: Option<DataFormat>,
     },
     /// Render PNG frames at any times (also beyond [0, 1] and negative) and a GIF.
     Render {
@@ -206,7 +214,8 @@ struct FrameArgs {
     /// Times A:B:N (N frames from A to B); A may be negative (`--times -0.5:1.5:40`).
     #[arg(long, default_value = "0:1:40", allow_hyphen_values = true)]
     times: String,
-    /// Cameras: orbit or test.
+    /// Cameras: orbit, test, rig (a multi-view rig's cameras in turn) or one rig camera
+    /// (cam03).
     #[arg(long, default_value = "orbit")]
     camera: CameraPath,
     /// Also write a GIF: OUT/render.gif (render) or OUT/inject.gif (inject).
@@ -215,6 +224,9 @@ struct FrameArgs {
     /// Dataset folder (default: the run's).
     #[arg(long)]
     data: Option<PathBuf>,
+    /// Dataset layout: auto, dnerf or n3dv (default: the run's, recognised from the folder).
+    #[arg(long)]
+    format: Option<DataFormat>,
 }
 
 /// Progress bars and messages on the terminal; when stderr is not a terminal (logs, CI), a
@@ -287,6 +299,7 @@ fn main() -> Result<()> {
     match cli.cmd {
         Cmd::Train {
             data,
+            format,
             out,
             config,
             preset,
@@ -310,6 +323,7 @@ fn main() -> Result<()> {
                 split_time,
                 iters,
                 seed,
+                format,
                 resume,
                 force,
                 skip_outputs: false,
@@ -378,13 +392,14 @@ fn main() -> Result<()> {
             split,
             time_range,
             data,
+            format,
         } => {
             let range = time_range
                 .as_deref()
                 .map(parse_range)
                 .transpose()
                 .map_err(anyhow::Error::msg)?;
-            let (m, path) = evaluate_run(&run, split, range, data.as_deref(), &mut term)?;
+            let (m, path) = evaluate_run(&run, split, range, data.as_deref(), format, &mut term)?;
             println!("{:>10} {:>8} {:>8}", "time", "PSNR", "SSIM");
             for f in &m.frames {
                 println!("{:>10.4} {:>8.2} {:>8.4}", f.time, f.psnr, f.ssim);
@@ -407,6 +422,7 @@ fn main() -> Result<()> {
                     camera: frames.camera,
                     gif: frames.gif,
                     data: frames.data,
+                    format: frames.format,
                 },
                 None,
                 &mut term,
@@ -432,6 +448,7 @@ fn main() -> Result<()> {
                 camera: frames.camera,
                 gif: frames.gif,
                 data: frames.data,
+                format: frames.format,
             };
             let frames = inject(&args, &mut term)?;
             println!("{} frames written to {}", frames.len(), args.out.display());

@@ -76,6 +76,7 @@ fn export_and_render_refuse_times_out_of_reach() {
                 camera: CameraPath::Orbit,
                 gif: false,
                 data: Some(shipped_scene()),
+                format: None,
             },
             None,
             &mut Silent,
@@ -98,14 +99,28 @@ fn export_and_render_refuse_times_out_of_reach() {
         assert!(parse_range(bad).is_err(), "`{bad}` refused");
     }
     let (whole, whole_path) =
-        evaluate_run(&run, SplitName::Test, None, None, &mut Silent).expect("whole split");
+        evaluate_run(&run, SplitName::Test, None, None, None, &mut Silent).expect("whole split");
     let before = std::fs::read(&whole_path).expect("metrics-test.json");
-    let e = evaluate_run(&run, SplitName::Test, Some((5.0, 6.0)), None, &mut Silent)
-        .expect_err("no frame in 5:6")
-        .to_string();
+    let e = evaluate_run(
+        &run,
+        SplitName::Test,
+        Some((5.0, 6.0)),
+        None,
+        None,
+        &mut Silent,
+    )
+    .expect_err("no frame in 5:6")
+    .to_string();
     assert!(e.contains("selects none of the 10 `test` frames"), "{e}");
-    let (part, part_path) =
-        evaluate_run(&run, SplitName::Test, Some((0.5, 1.0)), None, &mut Silent).expect("part");
+    let (part, part_path) = evaluate_run(
+        &run,
+        SplitName::Test,
+        Some((0.5, 1.0)),
+        None,
+        None,
+        &mut Silent,
+    )
+    .expect("part");
     assert!(
         part.frames.len() < whole.frames.len() && !part.frames.is_empty(),
         "a subset"

@@ -3,7 +3,7 @@
 use super::Reporter;
 use super::paths::RunFolder;
 use super::train::{CommandError, load_dataset};
-use crate::data::SplitName;
+use crate::data::{DataFormat, SplitName};
 use crate::eval::{SplitMetrics, evaluate};
 use crate::run::checkpoint;
 use evogs_math::Par;
@@ -29,7 +29,8 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
 
 /// Runs `evogs eval` and writes the metrics file (`RUN/metrics-<split>.json`, or
 /// `RUN/metrics-<split>-tA-B.json` for a time range, which the file also records); returns
-/// the metrics and the file.
+/// the metrics and the file. `data` and `format` override the run's dataset folder and
+/// layout.
 ///
 /// # Errors
 /// Unreadable run or data, an empty split, a time range that selects no frame.
@@ -38,6 +39,7 @@ pub fn evaluate_run(
     split: SplitName,
     range: Option<(f64, f64)>,
     data: Option<&Path>,
+    format: Option<DataFormat>,
     rep: &mut dyn Reporter,
 ) -> Result<(SplitMetrics, PathBuf), CommandError> {
     let folder = RunFolder::new(run);
@@ -46,7 +48,12 @@ pub fn evaluate_run(
         Some(d) => d.to_path_buf(),
         None => folder.data_dir().map_err(CommandError)?,
     };
-    let ds = load_dataset(&dir, &l.cfg, true)?;
+    let mut cfg = l.cfg.clone();
+    if let Some(f) = format {
+        cfg.data.format = f;
+    }
+    // Images are decoded as each view is evaluated (one frame in memory at a time).
+    let ds = load_dataset(&dir, &cfg, false)?;
     let views = ds.split(split);
     if views.is_empty() {
         return Err(CommandError(format!(

@@ -13,7 +13,7 @@ use super::Reporter;
 use super::paths::RunFolder;
 use super::render::{CameraPath, path_cameras};
 use super::train::{CommandError, load_dataset};
-use crate::data::image_io;
+use crate::data::{DataFormat, image_io};
 use crate::field::neural::gaussian_layout;
 use crate::model::Motion;
 use crate::run::checkpoint;
@@ -133,6 +133,8 @@ pub struct InjectArgs {
     pub gif: bool,
     /// Dataset folder (default: the run's).
     pub data: Option<PathBuf>,
+    /// Dataset layout override (default: the run's `data.format`).
+    pub format: Option<DataFormat>,
 }
 
 /// Renders the edited motion; returns the frames written.
@@ -153,7 +155,11 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<Vec<PathBuf>,
         Some(d) => d.clone(),
         None => run.data_dir().map_err(CommandError)?,
     };
-    let ds = load_dataset(&dir, &l.cfg, false)?;
+    let mut cfg = l.cfg.clone();
+    if let Some(f) = args.format {
+        cfg.data.format = f;
+    }
+    let ds = load_dataset(&dir, &cfg, false)?;
     let n = model.len();
     let frame =
         ParticleFrame::new(gaussian_layout(n), 0, Some(1)).map_err(CommandError::from_display)?;
@@ -168,7 +174,7 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<Vec<PathBuf>,
             .check_time(t)
             .map_err(|e| CommandError(format!("--times: {e}")))?;
     }
-    let cams = path_cameras(args.camera, &ds, &model, count)?;
+    let cams = path_cameras(&args.camera, &ds, &model, count)?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| CommandError(format!("{}: cannot create: {e}", args.out.display())))?;
     model.field.set_count(n);

@@ -108,3 +108,14 @@ pub fn shipped_scene() -> PathBuf {
     }
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/toys-mini")
 }
+
+/// The multi-view scene shipped in the repository (`data/toys-mv-mini`, N3DV layout), found
+/// like [`shipped_scene`].
+#[must_use]
+pub fn shipped_multiview_scene() -> PathBuf {
+    let local = PathBuf::from("data/toys-mv-mini");
+    if local.join("poses_bounds.npy").is_file() {
+        return local;
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/toys-mv-mini")
+}

@@ -1,10 +1,11 @@
 //! `evogs render`: PNG frames at any times (also outside the training range, negative too)
-//! from an orbit around the scene or from the test cameras, plus an optional GIF.
+//! from an orbit around the scene, the test cameras, or a multi-view rig's cameras, plus an
+//! optional GIF.
 
 use super::Reporter;
 use super::paths::RunFolder;
 use super::train::{CommandError, load_dataset};
-use crate::data::{Dataset, image_io};
+use crate::data::{DataFormat, Dataset, image_io};
 use crate::eval::render_frame;
 use crate::model::Model;
 use crate::run::checkpoint;
@@ -14,12 +15,16 @@ use evogs_splat::{PinholeCamera, Splats};
 use std::path::PathBuf;
 
 /// Which cameras the frames use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum CameraPath {
     /// One turn around the scene at the training cameras' mean distance and elevation.
     Orbit,
     /// The test cameras, cycled.
     Test,
+    /// A multi-view rig's cameras, cycled (frame `i` from camera `i mod N`).
+    Rig,
+    /// One camera of a multi-view rig, by folder name (`cam03`).
+    Camera(String),
 }
 
 impl std::str::FromStr for CameraPath {
@@ -28,7 +33,16 @@ impl std::str::FromStr for CameraPath {
         match s {
             "orbit" => Ok(Self::Orbit),
             "test" => Ok(Self::Test),
-            _ => Err(format!("unknown camera path `{s}` (orbit, test)")),
+            "rig" => Ok(Self::Rig),
+            _ if s.len() > 3
+                && s.starts_with("cam")
+                && s.bytes().skip(3).all(|b| b.is_ascii_digit()) =>
+            {
+                Ok(Self::Camera(s.to_string()))
+            }
+            _ => Err(format!(
+                "unknown camera path `{s}` (orbit, test, rig, or a rig camera such as cam03)"
+            )),
         }
     }
 }
@@ -48,6 +62,8 @@ pub struct RenderArgs {
     pub gif: bool,
     /// Dataset folder (default: the one recorded in the run).
     pub data: Option<PathBuf>,
+    /// Dataset layout override (default: the run's `data.format`).
+    pub format: Option<DataFormat>,
 }
 
 /// What was written.
@@ -78,8 +94,24 @@ pub fn parse_times(s: &str) -> Result<(f64, f64, usize), String> {
     Ok((a, b, n))
 }
 
-/// Orbit cameras: `n` poses around the centre of the scene, at the training cameras' mean
-/// distance and elevation, with their field of view and image size.
+/// The world's up direction: +z for D-NeRF scenes (Blender worlds); for a multi-view rig the
+/// mean of its cameras' up axes (LLFF worlds have no fixed up), +z if they cancel out.
+#[must_use]
+pub fn world_up(ds: &Dataset) -> Vec3<f64> {
+    let z = Vec3::new(0.0, 0.0, 1.0);
+    if ds.format != DataFormat::N3dv || ds.rig.is_empty() {
+        return z;
+    }
+    let sum = ds.rig.iter().fold(Vec3::zero(), |s, c| {
+        s + Vec3::new(c.c2w[0][1], c.c2w[1][1], c.c2w[2][1])
+    });
+    let n = sum.norm();
+    if n > 1e-6 { sum * (1.0 / n) } else { z }
+}
+
+/// Orbit cameras: `n` poses around the centre of the scene about the world's up direction
+/// ([`world_up`]), at the training cameras' mean distance and height, with their field of
+/// view and image size.
 ///
 /// # Errors
 /// No training views, or a degenerate pose.
@@ -88,6 +120,21 @@ pub fn orbit_cameras(
     center: Vec3<f64>,
     n: usize,
 ) -> Result<Vec<PinholeCamera<f32>>, String> {
+    let up = world_up(ds);
+    // A basis of the orbit's plane: x and y for the z-up D-NeRF world, else any
+    // orthonormal pair perpendicular to up.
+    let (e1, e2) = if up == Vec3::new(0.0, 0.0, 1.0) {
+        (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0))
+    } else {
+        let seed = if up.x.abs() < 0.9 {
+            Vec3::new(1.0, 0.0, 0.0)
+        } else {
+            Vec3::new(0.0, 1.0, 0.0)
+        };
+        let e1 = seed - up * seed.dot(up);
+        let e1 = e1 * (1.0 / e1.norm());
+        (e1, up.cross(e1))
+    };
     let v0 = ds
         .train
         .first()
@@ -101,51 +148,99 @@ pub fn orbit_cameras(
         .map(|c| (c.center() - center).norm())
         .sum::<f64>()
         / m;
-    let height = cams.iter().map(|c| c.center().z - center.z).sum::<f64>() / m;
+    let height = cams
+        .iter()
+        .map(|c| (c.center() - center).dot(up))
+        .sum::<f64>()
+        / m;
     let ring = (radius * radius - height * height).max(1e-6).sqrt();
     (0..n)
         .map(|i| {
             #[allow(clippy::cast_precision_loss, reason = "frame counts are small")]
             let a = std::f64::consts::TAU * i as f64 / n as f64;
-            let eye = center + Vec3::new(ring * a.cos(), ring * a.sin(), height);
-            PinholeCamera::look_at(
-                eye,
-                center,
-                Vec3::new(0.0, 0.0, 1.0),
-                v0.fov_x,
-                v0.width,
-                v0.height,
-            )
-            .map(|c: PinholeCamera<f64>| c.cast())
-            .map_err(|e| format!("orbit camera {i}: {e}"))
+            let eye = center + (e1 * (ring * a.cos()) + e2 * (ring * a.sin()) + up * height);
+            PinholeCamera::look_at(eye, center, up, v0.fov_x, v0.width, v0.height)
+                .map(|c: PinholeCamera<f64>| c.cast())
+                .map_err(|e| format!("orbit camera {i}: {e}"))
         })
         .collect()
 }
 
 /// The point the orbit turns around: the Gaussians' mean position, on the ground (z = 0) of
-/// the z-up D-NeRF world.
+/// the z-up D-NeRF world; for a multi-view rig (whose world has no ground) the mean itself.
 #[must_use]
-pub fn orbit_center(model: &Model<f32>) -> Vec3<f64> {
+pub fn orbit_center(model: &Model<f32>, ds: &Dataset) -> Vec3<f64> {
     let c = &model.canonical.means;
     #[allow(clippy::cast_precision_loss, reason = "counts")]
     let k = c.len().max(1) as f64;
     let m = c.iter().fold(Vec3::zero(), |s, v| s + v.cast::<f64>()) * (1.0 / k);
-    Vec3::new(m.x, m.y, 0.0)
+    if ds.format == DataFormat::N3dv {
+        m
+    } else {
+        Vec3::new(m.x, m.y, 0.0)
+    }
+}
+
+/// The cameras of a multi-view rig, by name or all of them.
+///
+/// # Errors
+/// A dataset without a rig, or no camera of that name.
+fn rig_cameras(ds: &Dataset, name: Option<&str>) -> Result<Vec<PinholeCamera<f32>>, String> {
+    if ds.rig.is_empty() {
+        return Err(format!(
+            "{}: the dataset has no camera rig ({} layout); use --camera orbit or test",
+            ds.root.display(),
+            ds.format
+        ));
+    }
+    let picked: Vec<_> = ds
+        .rig
+        .iter()
+        .filter(|c| name.is_none_or(|n| c.name == n))
+        .collect();
+    if picked.is_empty() {
+        let names: Vec<&str> = ds.rig.iter().map(|c| c.name.as_str()).collect();
+        return Err(format!(
+            "{}: no rig camera `{}` (the rig has {})",
+            ds.root.display(),
+            name.unwrap_or_default(),
+            names.join(", ")
+        ));
+    }
+    picked
+        .into_iter()
+        .map(|c| {
+            PinholeCamera::from_dnerf(c.c2w, c.fov_x, c.width, c.height)
+                .map_err(|e| format!("{}: bad camera: {e}", c.name))
+        })
+        .collect()
 }
 
 /// The cameras of `count` frames along `path`: an orbit around the model's centre
-/// ([`orbit_center`], [`orbit_cameras`]) or the test cameras, cycled.
+/// ([`orbit_center`], [`orbit_cameras`]), the test cameras cycled, a rig's cameras cycled, or
+/// one rig camera.
 ///
 /// # Errors
-/// No training views to place the orbit, no test cameras, or an invalid camera.
+/// No training views to place the orbit, no test cameras, no rig or rig camera of that
+/// name, or an invalid camera.
 pub fn path_cameras(
-    path: CameraPath,
+    path: &CameraPath,
     ds: &Dataset,
     model: &Model<f32>,
     count: usize,
 ) -> Result<Vec<PinholeCamera<f32>>, CommandError> {
     match path {
-        CameraPath::Orbit => orbit_cameras(ds, orbit_center(model), count).map_err(CommandError),
+        CameraPath::Orbit => {
+            orbit_cameras(ds, orbit_center(model, ds), count).map_err(CommandError)
+        }
+        CameraPath::Rig | CameraPath::Camera(_) => {
+            let name = match path {
+                CameraPath::Camera(n) => Some(n.as_str()),
+                _ => None,
+            };
+            let rig = rig_cameras(ds, name).map_err(CommandError)?;
+            Ok((0..count).map(|i| rig[i % rig.len()]).collect())
+        }
         CameraPath::Test => {
             let t: Vec<PinholeCamera<f32>> = ds
                 .test
@@ -183,7 +278,11 @@ pub fn render_sequence(
                 Some(d) => d.clone(),
                 None => run.data_dir().map_err(CommandError)?,
             };
-            let ds = load_dataset(&dir, &l.cfg, false)?;
+            let mut cfg = l.cfg.clone();
+            if let Some(f) = args.format {
+                cfg.data.format = f;
+            }
+            let ds = load_dataset(&dir, &cfg, false)?;
             own = (l.model, ds);
             (&mut own.0, &own.1)
         }
@@ -195,7 +294,7 @@ pub fn render_sequence(
             .check_time(t)
             .map_err(|e| CommandError(format!("--times: {e}")))?;
     }
-    let cams = path_cameras(args.camera, ds, model, n)?;
+    let cams = path_cameras(&args.camera, ds, model, n)?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| CommandError(format!("{}: cannot create: {e}", args.out.display())))?;
     rep.start("render", n as u64);

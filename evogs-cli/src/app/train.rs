@@ -5,12 +5,12 @@ use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
 use super::{Reporter, interrupt, plot};
 use crate::config::{Protocol, ScheduleConfig, TrainConfig};
-use crate::data::{Dataset, LoadOptions, SplitName};
+use crate::data::{DataFormat, Dataset, LoadOptions, SplitName};
 use crate::eval::{SplitMetrics, evaluate};
 use crate::model::Motion;
 use crate::run::checkpoint;
 use crate::train::trainer::{LogRow, Trainer};
-use crate::train::views::{supervised_indices, training_views};
+use crate::train::views::{supervised_indices, training_frames};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -49,6 +49,8 @@ pub struct TrainArgs {
     pub iters: Option<u64>,
     /// Seed override.
     pub seed: Option<u64>,
+    /// Dataset layout override (`data.format`; default: recognised from the folder).
+    pub format: Option<DataFormat>,
     /// Continue from the run folder's checkpoint.
     pub resume: bool,
     /// Replace a run already in the folder (its checkpoint, log, curve, metrics, renders).
@@ -111,22 +113,59 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig, CommandError> {
     if let Some(s) = args.seed {
         cfg.seed = s;
     }
+    if let Some(f) = args.format {
+        cfg.data.format = f;
+    }
     cfg.validate().map_err(CommandError)?;
     Ok(cfg)
 }
 
-/// Loads a dataset with the run's background and downscale.
+/// The dataset options of a run's data configuration (layout, background, downscale,
+/// held-out cameras, times file).
+#[must_use]
+pub fn load_options(cfg: &TrainConfig, images: bool) -> LoadOptions {
+    LoadOptions {
+        background: cfg.data.background,
+        downscale: cfg.data.downscale,
+        load_images: images,
+        format: cfg.data.format,
+        test_cameras: cfg.data.test_cameras.clone(),
+        val_cameras: cfg.data.val_cameras.clone(),
+        times_file: cfg.data.times_file.clone(),
+        ..LoadOptions::default()
+    }
+}
+
+/// Loads a dataset with the run's data settings ([`load_options`]). Every frame's file and
+/// size is checked. With `images`, the images are decoded now if all of them fit the frame
+/// budget (`data.cache_mb`); otherwise (and without `images`) they stay on disk and are
+/// decoded when used ([`crate::data::View::image_or_decode`], the training frame cache).
 ///
 /// # Errors
 /// Any data problem, naming the file.
 pub fn load_dataset(dir: &Path, cfg: &TrainConfig, images: bool) -> Result<Dataset, CommandError> {
-    let opts = LoadOptions {
-        background: cfg.data.background,
-        downscale: cfg.data.downscale,
-        load_images: images,
-        ..LoadOptions::default()
-    };
-    Dataset::load(dir, &opts).map_err(CommandError::from_display)
+    let mut ds =
+        Dataset::load(dir, &load_options(cfg, false)).map_err(CommandError::from_display)?;
+    if images && ds.decoded_bytes() <= cfg.data.cache_bytes() {
+        ds.decode_images().map_err(CommandError::from_display)?;
+    }
+    Ok(ds)
+}
+
+/// How the dataset's frames are held: decoded in memory, or read through the frame cache.
+fn frames_note(ds: &Dataset, cfg: &TrainConfig) -> String {
+    #[allow(clippy::cast_precision_loss, reason = "sizes for display")]
+    let mib = |b: usize| b as f64 / (1024.0 * 1024.0);
+    let all = ds.decoded_bytes();
+    if all <= cfg.data.cache_bytes() {
+        format!("frames decoded in memory ({:.0} MiB)", mib(all))
+    } else {
+        format!(
+            "frames decoded as used through a {} MiB cache ({:.0} MiB decoded in all)",
+            cfg.data.cache_mb,
+            mib(all)
+        )
+    }
 }
 
 fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
@@ -232,20 +271,27 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
     if let (true, Some(n)) = (resuming, args.iters) {
         cfg.schedule.iterations = n;
     }
+    if let (true, Some(f)) = (resuming, args.format) {
+        cfg.data.format = f;
+    }
     let data_dir = match (&args.data, resuming) {
         (Some(d), _) => d.clone(),
         (None, true) => run.data_dir().map_err(CommandError)?,
         (None, false) => shipped_scene(),
     };
     rep.info(&format!("data: {}", data_dir.display()));
-    let ds = load_dataset(&data_dir, &cfg, true)?;
+    let mut ds = load_dataset(&data_dir, &cfg, true)?;
     let idx = supervised_indices(&ds.train, &cfg.data);
-    let views = training_views(&ds.train, &idx).map_err(CommandError)?;
+    // The loaded training images move into the training views.
+    let views =
+        training_frames(&mut ds.train, &idx, cfg.data.cache_bytes()).map_err(CommandError)?;
     rep.info(&format!(
-        "{} of {} training views supervised ({:?} protocol)",
+        "{} of {} training views supervised ({:?} protocol); {} layout, {}",
         views.len(),
         ds.train.len(),
-        cfg.data.protocol
+        cfg.data.protocol,
+        ds.format,
+        frames_note(&ds, &cfg)
     ));
     if args.force && !args.resume {
         run.clear().map_err(CommandError)?;
@@ -371,6 +417,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         camera: CameraPath::Orbit,
         gif: true,
         data: Some(data_dir),
+        format: Some(ds.format),
     };
     outcome.gif = render_sequence(&rargs, Some((&mut t.model, &ds)), rep)?.gif;
     Ok(outcome)

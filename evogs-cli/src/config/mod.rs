@@ -4,6 +4,7 @@
 //! Resolution order: preset → config file (`--config`, any subset of fields) → command-line
 //! flags. The resolved configuration is written to `RUN/config.toml`.
 
+use crate::data::DataFormat;
 use crate::field::{HexPlaneConfig, NeuralFieldConfig};
 use crate::model::{Motion, Waypoints};
 use crate::motion::{OrbitSearchConfig, SpinSearchConfig};
@@ -110,6 +111,11 @@ impl TrainConfig {
                 protocol: Protocol::Full,
                 stride: 2,
                 split_time: 0.75,
+                format: DataFormat::Auto,
+                cache_mb: 2048,
+                test_cameras: vec!["cam00".into()],
+                val_cameras: Vec::new(),
+                times_file: None,
             },
             init: InitConfig {
                 use_points: true,
@@ -247,6 +253,15 @@ impl TrainConfig {
             "data.downscale must be at least 1",
         )?;
         chk(self.data.stride >= 1, "data.stride must be at least 1")?;
+        chk(
+            self.data.cache_mb >= 1,
+            "data.cache_mb must be at least 1 (MiB of decoded frames)",
+        )?;
+        chk(
+            self.data.test_cameras.iter().all(|c| !c.is_empty())
+                && self.data.val_cameras.iter().all(|c| !c.is_empty()),
+            "data.test_cameras and data.val_cameras must name camera folders (cam00, ...)",
+        )?;
         chk(self.init.sh_degree <= 3, "init.sh_degree must be 0..=3")?;
         chk(
             self.dynamics.step_fraction > 0.0 && self.dynamics.step_fraction <= 1.0,

@@ -2,14 +2,17 @@
 //! losses, optimiser, densification and schedule (the field's and the searches' own are
 //! beside their code).
 
+use crate::data::DataFormat;
 use crate::model::{Motion, Waypoints};
 use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
 
 /// Data loading and the training protocol.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DataConfig {
-    /// Background colour the RGBA frames are composited onto and renders end on.
+    /// Background colour the RGBA frames are composited onto and renders end on (a
+    /// multi-view capture's opaque frames carry their own background).
     pub background: [f32; 3],
     /// Integer downscale factor of the images.
     pub downscale: usize,
@@ -20,6 +23,29 @@ pub struct DataConfig {
     pub stride: usize,
     /// Split time of the future and backward protocols.
     pub split_time: f64,
+    /// Dataset layout: `auto` (recognised from the folder), `dnerf` or `n3dv`.
+    pub format: DataFormat,
+    /// Memory budget of decoded frames, in MiB: a dataset whose decoded images fit is decoded
+    /// when loaded; a larger one is decoded as training reaches its frames, through a cache
+    /// of this size (the least recently used frames leave first).
+    pub cache_mb: usize,
+    /// Multi-view: the cameras held out as the test split (N3DV: `cam00`).
+    pub test_cameras: Vec<String>,
+    /// Multi-view: the cameras held out as the validation split.
+    pub val_cameras: Vec<String>,
+    /// Multi-view: a file of frame times (one per frame index), relative to the dataset
+    /// folder. Unset: the folder's `times.txt` if present, else frame `k` of `T` at
+    /// `k / (T − 1)`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub times_file: Option<PathBuf>,
+}
+
+impl DataConfig {
+    /// The frame memory budget in bytes (`cache_mb` MiB).
+    #[must_use]
+    pub fn cache_bytes(&self) -> usize {
+        self.cache_mb.saturating_mul(1024 * 1024)
+    }
 }
 
 /// Which training frames are supervised.

@@ -7,155 +7,11 @@
 //! Images are composited onto a background (white by default) and optionally box-downscaled.
 //! Every problem is reported as one line naming the file ([`DataError`]); nothing panics.
 
-use super::image_io::{downscale, load_png_rgb};
-use super::ply::PlyTable;
+use super::dataset::{DataError, Dataset, LoadOptions, SplitName, View, optional_point_cloud};
+use super::format::DataFormat;
 use evogs_splat::Image;
 use serde::Deserialize;
-use std::path::{Path, PathBuf};
-
-/// The splits of a D-NeRF dataset.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SplitName {
-    /// `transforms_train.json`.
-    Train,
-    /// `transforms_val.json`.
-    Val,
-    /// `transforms_test.json`.
-    Test,
-    /// `transforms_future.json` (optional).
-    Future,
-}
-
-impl SplitName {
-    /// Lowercase name (`train`, `val`, `test`, `future`).
-    #[must_use]
-    pub const fn as_str(self) -> &'static str {
-        match self {
-            Self::Train => "train",
-            Self::Val => "val",
-            Self::Test => "test",
-            Self::Future => "future",
-        }
-    }
-}
-
-impl std::str::FromStr for SplitName {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "train" => Ok(Self::Train),
-            "val" => Ok(Self::Val),
-            "test" => Ok(Self::Test),
-            "future" => Ok(Self::Future),
-            _ => Err(format!("unknown split `{s}` (train, val, test, future)")),
-        }
-    }
-}
-
-/// Why a dataset could not be loaded: always names the file.
-#[derive(Debug, thiserror::Error)]
-pub enum DataError {
-    /// A required file or folder is missing.
-    #[error("{path}: missing ({what})")]
-    Missing {
-        /// File.
-        path: String,
-        /// What it should have been.
-        what: &'static str,
-    },
-    /// The JSON does not parse or lacks a field.
-    #[error("{path}: malformed JSON: {msg}")]
-    Json {
-        /// File.
-        path: String,
-        /// Parser message.
-        msg: String,
-    },
-    /// A value is invalid.
-    #[error("{path}: {msg}")]
-    Invalid {
-        /// File.
-        path: String,
-        /// What is wrong.
-        msg: String,
-    },
-    /// An image could not be read.
-    #[error(transparent)]
-    Image(#[from] super::image_io::ImageIoError),
-    /// The point cloud could not be read.
-    #[error(transparent)]
-    Ply(#[from] super::ply::PlyError),
-}
-
-/// How to load a dataset.
-#[derive(Clone, Debug, PartialEq)]
-pub struct LoadOptions {
-    /// Background the RGBA frames are composited onto (white by default).
-    pub background: [f32; 3],
-    /// Integer box-downscale factor (1 = full resolution).
-    pub downscale: usize,
-    /// Load the images (false: cameras and times only).
-    pub load_images: bool,
-    /// Splits to load besides `train` (absent optional files are skipped).
-    pub splits: Vec<SplitName>,
-}
-
-impl Default for LoadOptions {
-    fn default() -> Self {
-        Self {
-            background: [1.0, 1.0, 1.0],
-            downscale: 1,
-            load_images: true,
-            splits: vec![SplitName::Val, SplitName::Test, SplitName::Future],
-        }
-    }
-}
-
-/// One view: an image at a time from a camera.
-#[derive(Clone, Debug)]
-pub struct View {
-    /// The image file.
-    pub file: PathBuf,
-    /// Frame time.
-    pub time: f64,
-    /// Camera-to-world matrix, OpenGL/Blender axes (as in the file).
-    pub c2w: [[f64; 4]; 4],
-    /// Horizontal field of view (radians).
-    pub fov_x: f64,
-    /// Width in pixels (after downscaling).
-    pub width: usize,
-    /// Height in pixels (after downscaling).
-    pub height: usize,
-    /// The composited RGB image (`None` when images were not loaded).
-    pub image: Option<Image<f32>>,
-}
-
-/// An initial point cloud: positions and optional colours in [0, 1].
-#[derive(Clone, Debug, Default)]
-pub struct PointCloud {
-    /// Positions.
-    pub positions: Vec<[f32; 3]>,
-    /// Colours (same length as positions), if the file has `red`, `green`, `blue`.
-    pub colors: Option<Vec<[f32; 3]>>,
-}
-
-/// A loaded D-NeRF dataset.
-#[derive(Clone, Debug)]
-pub struct Dataset {
-    /// The dataset folder.
-    pub root: PathBuf,
-    /// Training views (times checked to lie in [0, 1]).
-    pub train: Vec<View>,
-    /// Validation views (if loaded and present).
-    pub val: Vec<View>,
-    /// Test views (if loaded and present).
-    pub test: Vec<View>,
-    /// Future views (`transforms_future.json`, optional).
-    pub future: Vec<View>,
-    /// `points3d.ply`, if present.
-    pub points: Option<PointCloud>,
-}
+use std::path::Path;
 
 #[derive(Deserialize)]
 struct TransformsFile {
@@ -170,66 +26,42 @@ struct FrameEntry {
     transform_matrix: [[f64; 4]; 4],
 }
 
-impl Dataset {
-    /// Loads a dataset folder.
-    ///
-    /// # Errors
-    /// [`DataError`] naming the file: missing file, malformed JSON, wrong image size,
-    /// non-finite matrix, a training time outside [0, 1], unsupported PNG, bad PLY.
-    pub fn load(root: &Path, opts: &LoadOptions) -> Result<Self, DataError> {
-        if !root.is_dir() {
-            return Err(DataError::Missing {
-                path: root.display().to_string(),
-                what: "dataset folder",
-            });
-        }
-        let mut ds = Self {
-            root: root.to_path_buf(),
-            train: load_split(root, SplitName::Train, opts)?.ok_or_else(|| DataError::Missing {
-                path: root.join("transforms_train.json").display().to_string(),
-                what: "training transforms",
-            })?,
-            val: Vec::new(),
-            test: Vec::new(),
-            future: Vec::new(),
-            points: None,
-        };
-        for &s in &opts.splits {
-            let views = load_split(root, s, opts)?.unwrap_or_default();
-            match s {
-                SplitName::Train => {}
-                SplitName::Val => ds.val = views,
-                SplitName::Test => ds.test = views,
-                SplitName::Future => ds.future = views,
-            }
-        }
-        let ply = root.join("points3d.ply");
-        if ply.is_file() {
-            ds.points = Some(read_point_cloud(&ply)?);
-        }
-        Ok(ds)
+/// Loads a D-NeRF dataset folder.
+///
+/// # Errors
+/// [`DataError`] naming the file: missing file, malformed JSON, wrong image size,
+/// non-finite matrix, a training time outside [0, 1], unsupported PNG, bad PLY.
+pub(super) fn load(root: &Path, opts: &LoadOptions) -> Result<Dataset, DataError> {
+    if !root.is_dir() {
+        return Err(DataError::Missing {
+            path: root.display().to_string(),
+            what: "dataset folder",
+        });
     }
-
-    /// The views of a split.
-    #[must_use]
-    pub fn split(&self, s: SplitName) -> &[View] {
+    let mut ds = Dataset {
+        root: root.to_path_buf(),
+        format: DataFormat::Dnerf,
+        train: load_split(root, SplitName::Train, opts)?.ok_or_else(|| DataError::Missing {
+            path: root.join("transforms_train.json").display().to_string(),
+            what: "training transforms",
+        })?,
+        val: Vec::new(),
+        test: Vec::new(),
+        future: Vec::new(),
+        rig: Vec::new(),
+        points: None,
+    };
+    for &s in &opts.splits {
+        let views = load_split(root, s, opts)?.unwrap_or_default();
         match s {
-            SplitName::Train => &self.train,
-            SplitName::Val => &self.val,
-            SplitName::Test => &self.test,
-            SplitName::Future => &self.future,
+            SplitName::Train => {}
+            SplitName::Val => ds.val = views,
+            SplitName::Test => ds.test = views,
+            SplitName::Future => ds.future = views,
         }
     }
-
-    /// The smallest and largest training time.
-    #[must_use]
-    pub fn train_time_range(&self) -> (f64, f64) {
-        self.train
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(v.time), b.max(v.time))
-            })
-    }
+    ds.points = optional_point_cloud(root)?;
+    Ok(ds)
 }
 
 fn load_split(
@@ -294,6 +126,7 @@ fn load_split(
             width: 0,
             height: 0,
             image: None,
+            decode: opts.frame_decode(),
         });
     }
     load_images(&mut views, opts, &p)?;
@@ -320,7 +153,7 @@ fn load_images(views: &mut [View], opts: &LoadOptions, json: &str) -> Result<(),
                 None,
             ));
         }
-        let img = downscale(&load_png_rgb(&v.file, opts.background)?, opts.downscale);
+        let img = v.decode.decode(&v.file)?;
         Ok((img.width(), img.height(), Some(img)))
     };
     #[cfg(feature = "rayon")]
@@ -357,50 +190,4 @@ fn load_images(views: &mut [View], opts: &LoadOptions, json: &str) -> Result<(),
         v.image = img;
     }
     Ok(())
-}
-
-/// Reads an initial point cloud (`x`, `y`, `z`, optional `red`, `green`, `blue` as 0–255).
-///
-/// # Errors
-/// Unreadable or malformed PLY, missing coordinates, non-finite positions.
-pub fn read_point_cloud(path: &Path) -> Result<PointCloud, DataError> {
-    let t = PlyTable::read(path)?;
-    let p = path.display().to_string();
-    let col = |n: &str| {
-        t.column(n).ok_or_else(|| DataError::Invalid {
-            path: p.clone(),
-            msg: format!("no `{n}` property"),
-        })
-    };
-    let (x, y, z) = (col("x")?, col("y")?, col("z")?);
-    #[allow(clippy::cast_possible_truncation, reason = "positions stored as f32")]
-    let positions: Vec<[f32; 3]> = (0..t.len)
-        .map(|i| [x[i] as f32, y[i] as f32, z[i] as f32])
-        .collect();
-    if let Some(i) = positions
-        .iter()
-        .position(|p| !p.iter().all(|v| v.is_finite()))
-    {
-        return Err(DataError::Invalid {
-            path: p,
-            msg: format!("vertex {i} has a non-finite position"),
-        });
-    }
-    let colors = match (t.column("red"), t.column("green"), t.column("blue")) {
-        (Some(r), Some(g), Some(b)) => {
-            #[allow(clippy::cast_possible_truncation, reason = "8-bit colours")]
-            let c = (0..t.len)
-                .map(|i| {
-                    [
-                        (r[i] / 255.0) as f32,
-                        (g[i] / 255.0) as f32,
-                        (b[i] / 255.0) as f32,
-                    ]
-                })
-                .collect();
-            Some(c)
-        }
-        _ => None,
-    };
-    Ok(PointCloud { positions, colors })
 }

@@ -82,6 +82,40 @@ pub fn load_png_rgb(path: &Path, background: [f32; 3]) -> Result<Image<f32>, Ima
     Ok(out)
 }
 
+/// How an image file becomes a view's image: RGB in [0, 1] with any alpha composited onto
+/// `background`, then box-downscaled by `downscale` ([`load_png_rgb`], [`downscale`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameDecode {
+    /// Background the alpha is composited onto (opaque RGB frames ignore it).
+    pub background: [f32; 3],
+    /// Integer box-downscale factor from the file to the view (1: none).
+    pub downscale: usize,
+}
+
+impl Default for FrameDecode {
+    fn default() -> Self {
+        Self {
+            background: [1.0; 3],
+            downscale: 1,
+        }
+    }
+}
+
+impl FrameDecode {
+    /// Decodes `path`.
+    ///
+    /// # Errors
+    /// As [`load_png_rgb`].
+    pub fn decode(&self, path: &Path) -> Result<Image<f32>, ImageIoError> {
+        let img = load_png_rgb(path, self.background)?;
+        Ok(if self.downscale > 1 {
+            downscale(&img, self.downscale)
+        } else {
+            img
+        })
+    }
+}
+
 /// Box-filter downscale by an integer factor (the mean of each `f×f` block); trailing rows and
 /// columns that do not fill a block are dropped.
 #[must_use]

@@ -1,7 +1,17 @@
-//! Datasets and file formats: D-NeRF scenes, PNG/GIF images, PLY tables.
+//! Datasets and file formats: D-NeRF scenes, N3DV multi-view videos, PNG/GIF images, PLY
+//! tables, `.npy` matrices, and the bounded cache of decoded frames training reads through.
 
+pub mod dataset;
 pub mod dnerf;
+pub mod format;
+pub mod frame_cache;
 pub mod image_io;
+pub mod n3dv;
+pub mod npy;
 pub mod ply;
 
-pub use dnerf::{DataError, Dataset, LoadOptions, PointCloud, SplitName, View};
+pub use dataset::{
+    DataError, Dataset, LoadOptions, PointCloud, RigCamera, SplitName, View, read_point_cloud,
+};
+pub use format::DataFormat;
+pub use frame_cache::{CacheStats, FrameCache};

@@ -91,7 +91,7 @@ pub(crate) fn rendered_view(
     ViewData {
         camera,
         time,
-        image,
+        image: image.into(),
     }
 }
 

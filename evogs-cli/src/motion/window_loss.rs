@@ -293,7 +293,7 @@ mod tests {
         let view = ViewData {
             camera,
             time: 0.0,
-            image,
+            image: image.into(),
         };
         (splats, view, members, opts)
     }

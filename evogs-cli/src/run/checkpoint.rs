@@ -8,8 +8,8 @@ use crate::field::{NeuralField, TimeMapping};
 use crate::model::{AnchorState, Model};
 use crate::train::adam::AdamState;
 use crate::train::densify::DensifyStats;
+use crate::train::frames::TrainViews;
 use crate::train::optim::{Optimizer, StateGroups};
-use crate::train::step::ViewData;
 use crate::train::trainer::{LogRow, Trainer};
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Quat, Vec3};
@@ -287,7 +287,7 @@ fn get_groups(
 ///
 /// # Errors
 /// Unreadable or inconsistent checkpoints.
-pub fn resume(path: &Path, views: Vec<ViewData<f32>>) -> Result<Trainer, CheckpointError> {
+pub fn resume(path: &Path, views: impl Into<TrainViews>) -> Result<Trainer, CheckpointError> {
     let Loaded {
         cfg,
         model,

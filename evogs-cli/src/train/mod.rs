@@ -3,6 +3,7 @@
 pub mod adam;
 pub mod coherence;
 pub mod densify;
+pub mod frames;
 pub mod optim;
 pub mod orbit_stage;
 mod search_stage;

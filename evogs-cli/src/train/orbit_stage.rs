@@ -24,13 +24,14 @@ impl Trainer {
         let cfg = self.cfg.orbit_search.clone();
         let start = Instant::now();
         let mut stepper = None;
-        let mut ctx = search_context(
-            &self.views,
-            cfg.view_stride,
-            &self.model.canonical,
-            &self.cfg,
-            self.par,
-        );
+        let views = match self.views.every(cfg.view_stride) {
+            Ok(v) => v,
+            Err(e) => {
+                log(&format!("orbit search skipped: {e}"));
+                return Vec::new();
+            }
+        };
+        let mut ctx = search_context(&views, 1, &self.model.canonical, &self.cfg, self.par);
         let groups = canonical_groups(&ctx.p0, &self.model.canonical.opacity_logits, &cfg);
         for (b, g) in groups.iter().enumerate() {
             log(&format!(

@@ -24,13 +24,14 @@ impl Trainer {
         let start = Instant::now();
         let mut stepper = None;
         let paths = Paths::record(&mut self.model, self.time_range, &mut stepper);
-        let mut ctx = search_context(
-            &self.views,
-            cfg.view_stride,
-            &self.model.canonical,
-            &self.cfg,
-            self.par,
-        );
+        let views = match self.views.every(cfg.view_stride) {
+            Ok(v) => v,
+            Err(e) => {
+                log(&format!("spin search skipped: {e}"));
+                return Vec::new();
+            }
+        };
+        let mut ctx = search_context(&views, 1, &self.model.canonical, &self.cfg, self.par);
         let mut bodies = find_bodies(&paths, &ctx.p0, &cfg);
         // A body the orbit search moved keeps its orbit and spin: the spin search's model of
         // it (a sampled centroid path) is coarser, and its refits moved a found tumble away

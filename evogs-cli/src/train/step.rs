@@ -25,8 +25,10 @@ use evogs_splat::{
     CameraGrad, DensifyStats, Image, PinholeCamera, PixelGrad, RasterInputGrad, Render, RenderGrad,
     RenderOptions, Splats, TiledRasterizer, render_tiled_into, render_tiled_vjp_into,
 };
+use std::sync::Arc;
 
-/// One supervised view: camera, time and target image.
+/// One supervised view: camera, time and target image (shared, so a view handed out by a
+/// frame cache costs no copy).
 #[derive(Clone, Debug)]
 pub struct ViewData<T> {
     /// Camera.
@@ -34,7 +36,7 @@ pub struct ViewData<T> {
     /// Frame time.
     pub time: f64,
     /// Target image.
-    pub image: Image<T>,
+    pub image: Arc<Image<T>>,
 }
 
 /// The loss weights and switches a step needs.

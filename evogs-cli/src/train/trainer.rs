@@ -9,6 +9,7 @@
 
 use super::coherence::{COHERENCE_K, local_clusters};
 use super::densify::{DensifyReport, DensifyStats, densify_and_prune, reset_opacity};
+use super::frames::TrainViews;
 use super::optim::{LearningRates, Optimizer, StateGroups};
 use super::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats,
@@ -27,6 +28,9 @@ use std::time::Instant;
 
 /// Slack on time comparisons of the curriculum window (times are read from JSON).
 const WINDOW_EPS: f64 = 1e-9;
+
+/// Steps of views whose frames are decoded ahead of use.
+const PREFETCH_STEPS: usize = 2;
 
 /// Initial point positions with optional colours.
 pub type InitPoints<'a> = (&'a [[f32; 3]], Option<&'a [[f32; 3]]>);
@@ -47,6 +51,14 @@ pub enum TrainError {
     /// The configuration or the data cannot be used.
     #[error("{0}")]
     Setup(String),
+    /// A training frame could not be decoded; nothing of this iteration was applied.
+    #[error("iteration {iteration}: {msg}")]
+    Frame {
+        /// Iteration.
+        iteration: u64,
+        /// The decode error (names the file).
+        msg: String,
+    },
 }
 
 /// One line of the training log.
@@ -96,8 +108,8 @@ pub struct Trainer {
     pub model: Model<f32>,
     /// Adam states.
     pub optim: Optimizer,
-    /// Supervised training views.
-    pub views: Vec<ViewData<f32>>,
+    /// Supervised training views (images in memory or behind a bounded frame cache).
+    pub views: TrainViews,
     /// Scene extent (learning-rate scale).
     pub extent: f64,
     /// Training time range.
@@ -133,9 +145,10 @@ impl Trainer {
     /// No views, or an invalid configuration.
     pub fn new(
         cfg: TrainConfig,
-        views: Vec<ViewData<f32>>,
+        views: impl Into<TrainViews>,
         points: Option<InitPoints<'_>>,
     ) -> Result<Self, TrainError> {
+        let views = views.into();
         cfg.validate().map_err(TrainError::Setup)?;
         if views.is_empty() {
             return Err(TrainError::Setup(
@@ -143,7 +156,7 @@ impl Trainer {
             ));
         }
         let mut rng = SplitMix64::new(cfg.seed);
-        let (t0, t1) = super::views::time_range(&views);
+        let (t0, t1) = views.time_range();
         let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
         let random;
         let (pts, cols) = match points {
@@ -191,7 +204,7 @@ impl Trainer {
         );
         let optim = Optimizer::new(&model);
         let n = model.len();
-        let extent = super::views::camera_extent(&views);
+        let extent = views.camera_extent();
         let par = Par::best();
         let mut t = Self {
             cfg,
@@ -269,10 +282,9 @@ impl Trainer {
         let focus = self.cfg.schedule.curriculum_focus;
         if self.model.dynamics_active && hi < t1 && focus > 0.0 && self.rng.next_f64() < focus {
             let lo = hi - (t1 - t0) / 20.0;
-            let views = &self.views;
-            let newest = || {
-                (0..views.len()).filter(|&i| views[i].time > lo && views[i].time <= hi + WINDOW_EPS)
-            };
+            let times = self.views.times();
+            let newest =
+                || (0..times.len()).filter(|&i| times[i] > lo && times[i] <= hi + WINDOW_EPS);
             let count = newest().count();
             if count > 0 {
                 let pick = self.rng.below(count);
@@ -280,11 +292,10 @@ impl Trainer {
             }
         }
         let hi = hi + WINDOW_EPS;
-        let eligible = self.views.iter().filter(|v| v.time <= hi).count();
+        let times = self.views.times();
+        let eligible = times.iter().filter(|&&t| t <= hi).count();
         if self.order_pos >= self.order.len() || self.order.len() != eligible {
-            self.order = (0..self.views.len())
-                .filter(|&i| self.views[i].time <= hi)
-                .collect();
+            self.order = (0..times.len()).filter(|&i| times[i] <= hi).collect();
             for i in (1..self.order.len()).rev() {
                 let j = self.rng.below(i + 1);
                 self.order.swap(i, j);
@@ -407,7 +418,25 @@ impl Trainer {
         self.anchors_reached_by_window();
         let batch = self.cfg.schedule.views_per_step.max(1);
         let picks: Vec<usize> = (0..batch).map(|_| self.next_view()).collect();
-        report.view_time = self.views[picks[0]].time;
+        report.view_time = self.views.time(picks[0]);
+        // Decode this step's frames and the next steps' (as far as the current epoch's order
+        // tells) on the pool; the order of views never depends on when a decode finishes.
+        let ahead = self.order[self.order_pos.min(self.order.len())..]
+            .iter()
+            .take(PREFETCH_STEPS * picks.len());
+        let upcoming: Vec<usize> = picks.iter().chain(ahead).copied().collect();
+        self.views.prefetch(&upcoming);
+        let batch_data = match picks
+            .iter()
+            .map(|&i| self.views.view(i))
+            .collect::<Result<Vec<_>, _>>()
+        {
+            Ok(b) => b,
+            Err(msg) => {
+                self.iteration -= 1;
+                return Err(TrainError::Frame { iteration: it, msg });
+            }
+        };
         let settings = self.settings();
         let opts = render_options(self.cfg.data.background, self.active_sh_degree(), self.par);
         let mut grad = match self.grad.take() {
@@ -417,7 +446,7 @@ impl Trainer {
             }
             _ => self.model.zero_grad(),
         };
-        let batch_views: Vec<&ViewData<f32>> = picks.iter().map(|&i| &self.views[i]).collect();
+        let batch_views: Vec<&ViewData<f32>> = batch_data.iter().collect();
         let (losses, stats) = batch_loss_and_grad(
             &mut self.model,
             &batch_views,

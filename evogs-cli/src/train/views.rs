@@ -1,10 +1,13 @@
 //! From dataset views to training views: cameras, the training protocol's frame selection,
-//! the time range and the scene extent.
+//! the views with their images in memory or behind a frame cache.
 
+use super::frames::TrainViews;
 use super::step::ViewData;
 use crate::config::{DataConfig, Protocol};
 use crate::data::View;
+use crate::data::frame_cache::{FrameCache, FrameSource};
 use evogs_splat::{CameraError, PinholeCamera};
+use std::sync::Arc;
 
 /// The camera of a dataset view, in any precision.
 ///
@@ -41,57 +44,55 @@ pub fn supervised_indices(views: &[View], cfg: &DataConfig) -> Vec<usize> {
     }
 }
 
-/// Training views (images and cameras in f32) for the given indices.
+/// Training views (images and cameras in f32) for the given indices, every image in memory
+/// (decoded now when the dataset was loaded without images).
 ///
 /// # Errors
-/// A view without an image, or a bad camera.
+/// An image that cannot be decoded, or a bad camera.
 pub fn training_views(views: &[View], indices: &[usize]) -> Result<Vec<ViewData<f32>>, String> {
     indices
         .iter()
         .map(|&i| {
             let v = &views[i];
-            let image = v
-                .image
-                .clone()
-                .ok_or_else(|| format!("{}: image not loaded", v.file.display()))?;
+            let image = v.image_or_decode().map_err(|e| e.to_string())?;
             Ok(ViewData {
                 camera: view_camera(v)?,
                 time: v.time,
-                image,
+                image: Arc::new(image.into_owned()),
             })
         })
         .collect()
 }
 
-/// The scene extent of 3DGS (`getNerfppNorm`): 1.1 × the largest distance of a camera centre
-/// from the mean centre (the `spatial_lr_scale` of the learning rates).
-#[must_use]
-pub fn camera_extent(views: &[ViewData<f32>]) -> f64 {
-    if views.is_empty() {
-        return 1.0;
+/// Training views for the given indices, their images read through a frame cache of
+/// `budget_bytes`: images already loaded move into the training views (the dataset's views
+/// are left without them, so nothing is held twice), the others are decoded on demand (and
+/// ahead of use) by training.
+///
+/// # Errors
+/// A bad camera.
+pub fn training_frames(
+    views: &mut [View],
+    indices: &[usize],
+    budget_bytes: usize,
+) -> Result<TrainViews, String> {
+    let mut cameras = Vec::with_capacity(indices.len());
+    let mut times = Vec::with_capacity(indices.len());
+    let mut sources = Vec::with_capacity(indices.len());
+    for &i in indices {
+        let v = &mut views[i];
+        cameras.push(view_camera(v)?);
+        times.push(v.time);
+        sources.push(match v.image.take() {
+            Some(img) => FrameSource::Memory(Arc::new(img)),
+            None => FrameSource::File(Box::new(v.clone())),
+        });
     }
-    let centres: Vec<[f64; 3]> = views
-        .iter()
-        .map(|v| v.camera.center().cast::<f64>().to_array())
-        .collect();
-    #[allow(clippy::cast_precision_loss, reason = "view counts are small")]
-    let n = centres.len() as f64;
-    let mean: [f64; 3] = core::array::from_fn(|a| centres.iter().map(|c| c[a]).sum::<f64>() / n);
-    let far = centres
-        .iter()
-        .map(|c| (0..3).map(|a| (c[a] - mean[a]).powi(2)).sum::<f64>().sqrt())
-        .fold(0.0, f64::max);
-    1.1 * far.max(1e-6)
-}
-
-/// The smallest and largest time of a set of views.
-#[must_use]
-pub fn time_range(views: &[ViewData<f32>]) -> (f64, f64) {
-    views
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(v.time), b.max(v.time))
-        })
+    Ok(TrainViews::new(
+        cameras,
+        times,
+        FrameCache::new(sources, budget_bytes),
+    ))
 }
 
 #[cfg(test)]
@@ -108,6 +109,7 @@ mod tests {
             width: 2,
             height: 2,
             image: None,
+            decode: crate::data::image_io::FrameDecode::default(),
         }
     }
 
@@ -118,11 +120,10 @@ mod tests {
             .map(|&t| view(t))
             .collect();
         let mut cfg = DataConfig {
-            background: [1.0; 3],
-            downscale: 1,
             protocol: Protocol::Full,
             stride: 2,
             split_time: 0.5,
+            ..crate::config::TrainConfig::fast().data
         };
         assert_eq!(supervised_indices(&views, &cfg).len(), 6, "full");
         cfg.protocol = Protocol::Sparse;

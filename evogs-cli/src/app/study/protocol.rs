@@ -93,11 +93,10 @@ impl StudyProtocol {
             ));
         }
         let mut cfg = DataConfig {
-            background: [1.0; 3],
-            downscale: 1,
             protocol: Protocol::Full,
             stride: 2,
             split_time: 0.5,
+            ..crate::config::TrainConfig::fast().data
         };
         self.apply(&mut cfg);
         let supervised = supervised_indices(&ds.train, &cfg);
@@ -305,6 +304,7 @@ mod tests {
             width: 4,
             height: 4,
             image: None,
+            decode: crate::data::image_io::FrameDecode::default(),
         }
     }
 
@@ -312,6 +312,8 @@ mod tests {
     fn dataset(future: &[f64]) -> Dataset {
         Dataset {
             root: PathBuf::from("tiny"),
+            format: crate::data::DataFormat::Dnerf,
+            rig: Vec::new(),
             train: (0..8).map(|i| view(f64::from(i) / 7.0)).collect(),
             val: Vec::new(),
             test: [0.1, 0.5, 0.8, 0.95].iter().map(|&t| view(t)).collect(),

@@ -175,7 +175,7 @@ fn random_view(eye: Vec3<f64>, t: f64, rng: &mut SplitMix64) -> ViewData<f64> {
     ViewData {
         camera,
         time: t,
-        image,
+        image: image.into(),
     }
 }
 
