@@ -255,19 +255,6 @@ pub struct Dataset {
 }
 
 impl Dataset {
-    /// Loads a dataset folder in the layout `opts.format` names or, by default, the one
-    /// recognised from its files.
-    ///
-    /// # Errors
-    /// [`DataError`] naming the file: a missing folder or file, an unrecognised layout, and
-    /// every problem the layout's reader reports.
-    pub fn load(root: &Path, opts: &LoadOptions) -> Result<Self, DataError> {
-        match opts.format.resolve(root)? {
-            DataFormat::N3dv => super::n3dv::load(root, opts),
-            DataFormat::Dnerf | DataFormat::Auto => super::dnerf::load(root, opts),
-        }
-    }
-
     /// The views of a split.
     #[must_use]
     pub fn split(&self, s: SplitName) -> &[View] {

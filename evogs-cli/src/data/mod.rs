@@ -6,6 +6,7 @@ pub mod dnerf;
 pub mod format;
 pub mod frame_cache;
 pub mod image_io;
+mod load;
 pub mod n3dv;
 pub mod npy;
 pub mod ply;
