@@ -119,6 +119,7 @@ compile_error!("evogs-ode needs a float backend: enable the `std` (default) or t
 
 extern crate alloc;
 
+pub mod adaptive;
 mod adjoint;
 pub mod algebra;
 mod chunks;
