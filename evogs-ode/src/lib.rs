@@ -132,6 +132,8 @@ mod layout;
 mod method;
 pub mod order;
 pub mod problems;
+#[cfg(feature = "proptest")]
+pub mod strategies;
 mod rational;
 mod stepper;
 mod tableau;
