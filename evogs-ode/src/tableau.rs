@@ -260,7 +260,9 @@ impl Tableau {
     #[must_use]
     pub fn order_conditions(&self) -> [OrderCondition; 8] {
         let s = self.stages;
-        let dot = |u: &[Rational; MAX_STAGES], v: &[Rational; MAX_STAGES]| (0..s).fold(Z, |acc, i| acc + u[i] * v[i]);
+        let dot = |u: &[Rational; MAX_STAGES], v: &[Rational; MAX_STAGES]| {
+            (0..s).fold(Z, |acc, i| acc + u[i] * v[i])
+        };
         let amul = |v: &[Rational; MAX_STAGES]| {
             let mut out = [Z; MAX_STAGES];
             for i in 0..s {

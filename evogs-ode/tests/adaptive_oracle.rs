@@ -1,6 +1,6 @@
 //! The adaptive reference vectors (`tests/data/oracle/ode_adaptive_shared.json`: scipy
 //! DOP853 at rtol 1e-13 with variational equations, cross-checked with Radau; SCHEMA.md
-//! "ode_adaptive_shared.json"), checked as the file's `check` says.
+//! `ode_adaptive_shared.json`), checked as the file's `check` says.
 //!
 //! For each problem (built from its `name` and `params` only), each pair and each
 //! tol ∈ {1e-4, 1e-6, 1e-8, 1e-10} with rtol = atol = tol:
@@ -9,7 +9,7 @@
 //!   `eᵢ` at the output t1) within `1e3·tol·max(1, |ref|)`.
 //!
 //! `|·|` is read as the Euclidean norm of a state at one output time ("max over
-//! output_times of |x − x_at| / max(1, |x_at|)") and the Frobenius norm of `S`. The states
+//! `output_times` of `|x − x_at| / max(1, |x_at|)`") and the Frobenius norm of `S`. The states
 //! also pass entry by entry (asserted). `S` does not for Kepler: its entries reach 78 (the
 //! period depends on the energy), and the discrete derivative's error, about that factor
 //! times the solution's error, lands on the entries near 0 and 1 as well (about 5·1e3·tol
@@ -38,7 +38,12 @@ fn flat(v: &Value) -> Vec<f64> {
 
 /// `|a − r|₂ / max(1, |r|₂)` (vectors, or matrices with the Frobenius norm).
 fn rel_norm(a: &[f64], r: &[f64]) -> f64 {
-    let d: f64 = a.iter().zip(r).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
+    let d: f64 = a
+        .iter()
+        .zip(r)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt();
     let rn: f64 = r.iter().map(|y| y * y).sum::<f64>().sqrt();
     d / rn.max(1.0)
 }
@@ -69,7 +74,10 @@ fn adaptive_reference_vectors() {
         let sens = flat(&p["sensitivity_x1_wrt_x0"]);
         let m = times.len();
         assert_eq!(x_at.len(), m * n, "{name}: x_at shape");
-        assert!((times[m - 1] - t1).abs() == 0.0, "{name}: last output is t1");
+        assert!(
+            (times[m - 1] - t1).abs() == 0.0,
+            "{name}: last output is t1"
+        );
         for pair in Pair::ALL {
             for (tol, key) in TOLS {
                 let opts = AdaptiveOptions::with_tolerances(tol, tol);
@@ -99,7 +107,10 @@ fn adaptive_reference_vectors() {
                 // The file's reading with norms per output time (stricter elementwise above).
                 let norm_err = (0..m)
                     .map(|j| {
-                        let (a, r) = (&sol.outputs()[j * n..(j + 1) * n], &x_at[j * n..(j + 1) * n]);
+                        let (a, r) = (
+                            &sol.outputs()[j * n..(j + 1) * n],
+                            &x_at[j * n..(j + 1) * n],
+                        );
                         rel_norm(a, r)
                     })
                     .fold(0.0, f64::max);

@@ -6,15 +6,14 @@
 
 mod common;
 
-use common::{CoupledField, Counting, Loss, dual_tangent, random_state, retract};
+use common::{Counting, CoupledField, Loss, dual_tangent, random_state, retract};
 use evogs_math::Dual;
 use evogs_math::diff::{GradCheck, central_gradient, vjp_dot_test};
 use evogs_ode::adaptive::{AdaptiveOptions, AdaptiveSolver, Pair, StepSequence};
 use evogs_ode::fields::LinearField;
 use evogs_ode::problems::{Lorenz, VanDerPol};
 use evogs_ode::strategies::{
-    euclidean_state, linear_system, log_uniform, method, output_times, pair, state,
-    step_sequence,
+    euclidean_state, linear_system, log_uniform, method, output_times, pair, state, step_sequence,
 };
 use evogs_ode::{
     Checkpointing, Method, Rational, StateLayout, Stepper, Tableau, TimeGrid, VectorField,
@@ -114,7 +113,10 @@ impl Polynomial {
 
 /// Every fixed-step tableau: the built-in methods and both solutions of both pairs.
 fn tableaux() -> Vec<(Tableau, usize)> {
-    let mut v: Vec<(Tableau, usize)> = Method::ALL.iter().map(|m| (m.tableau(), m.order())).collect();
+    let mut v: Vec<(Tableau, usize)> = Method::ALL
+        .iter()
+        .map(|m| (m.tableau(), m.order()))
+        .collect();
     for p in Pair::ALL {
         v.push((p.tableau(), p.order()));
         v.push((p.embedded_tableau(), p.embedded_order()));

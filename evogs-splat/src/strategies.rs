@@ -34,8 +34,15 @@ pub fn camera(width: usize, height: usize) -> impl Strategy<Value = PinholeCamer
         })
         .prop_map(move |(d, r, fov)| {
             let eye = d * (r / d.norm());
-            PinholeCamera::look_at(eye, Vec3::zero(), Vec3::new(0.0, 1.0, 0.0), fov, width, height)
-                .expect("valid look-at")
+            PinholeCamera::look_at(
+                eye,
+                Vec3::zero(),
+                Vec3::new(0.0, 1.0, 0.0),
+                fov,
+                width,
+                height,
+            )
+            .expect("valid look-at")
         })
 }
 

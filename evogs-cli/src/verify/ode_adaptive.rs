@@ -1,5 +1,5 @@
 //! `ode_adaptive_*` files: the adaptive pairs of [`evogs_ode::adaptive`] against scipy
-//! DOP853 references (SCHEMA.md, "ode_adaptive_shared.json"), checked as the file's `check`
+//! DOP853 references (SCHEMA.md, `ode_adaptive_shared.json`), checked as the file's `check`
 //! says, for every problem (built from its `name` and `params` by
 //! [`evogs_ode::problems::by_name`], never from the file's numbers), both pairs (`dopri5`,
 //! `bs32`) and tol ∈ {1e-4, 1e-6, 1e-8, 1e-10} with rtol = atol = tol:
@@ -34,7 +34,10 @@ fn scipy_at(scipy: &Node<'_>, tol: f64) -> Option<(usize, usize)> {
             .is_ok_and(|v| (v - tol).abs() <= 1e-9 * tol)
     })?;
     let e = scipy.get(key).ok()?;
-    Some((e.get("nfev").ok()?.usize().ok()?, e.get("steps").ok()?.usize().ok()?))
+    Some((
+        e.get("nfev").ok()?.usize().ok()?,
+        e.get("steps").ok()?.usize().ok()?,
+    ))
 }
 
 /// `‖a − r‖ / max(1, ‖r‖)` (Euclidean; Frobenius for matrices).
@@ -55,7 +58,10 @@ fn problem(t: &mut Tally, p: &Node<'_>) -> Res<usize> {
     let mut field = match by_name(name, &|k: &str| param(&params, k)) {
         Ok(f) => f,
         Err(e) => {
-            t.fail(&format!("{name} (all)"), &format!("{e}: nothing recomputed"));
+            t.fail(
+                &format!("{name} (all)"),
+                &format!("{e}: nothing recomputed"),
+            );
             return Ok(0);
         }
     };

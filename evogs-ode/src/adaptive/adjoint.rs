@@ -69,7 +69,9 @@ impl<T: Real> AdaptiveSolver<T> {
         Self::check_len("d_params", field.n_params(), d_params.len())?;
         Self::check_len("d_times", m, d_times.len())?;
         if let Checkpointing::Every(0) = sol.checkpointing {
-            return Err(AdaptiveError::InvalidOption("checkpoint interval must be ≥ 1"));
+            return Err(AdaptiveError::InvalidOption(
+                "checkpoint interval must be ≥ 1",
+            ));
         }
         let steps = &sol.steps;
         let n_steps = steps.len();
@@ -118,7 +120,9 @@ impl<T: Real> AdaptiveSolver<T> {
                     let theta = steps.theta(k, sol.times[j]);
                     self.ext.weights(theta, &mut self.w, &mut self.dw);
                     tmp.copy_from_slice(&d_outputs[j * n..(j + 1) * n]);
-                    let d_theta = self.stepper.vjp_update(&self.w, Some(&self.dw), h, &mut tmp);
+                    let d_theta = self
+                        .stepper
+                        .vjp_update(&self.w, Some(&self.dw), h, &mut tmp);
                     d_times[j] = d_theta / h;
                     for (l, v) in lambda.iter_mut().zip(&tmp) {
                         *l += *v;

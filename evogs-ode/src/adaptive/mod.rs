@@ -202,10 +202,9 @@ impl fmt::Display for AdaptiveError {
             } => write!(f, "{what}: expected {expected} entries, found {found}"),
             Self::LayoutMismatch => f.write_str("the field's layout differs from the solver's"),
             Self::NonFinite(what) => write!(f, "{what} is not finite"),
-            Self::OutputTime { index } => write!(
-                f,
-                "output time {index} is outside [t0, t1] or out of order"
-            ),
+            Self::OutputTime { index } => {
+                write!(f, "output time {index} is outside [t0, t1] or out of order")
+            }
             Self::TooManySteps { t, max_steps } => {
                 write!(f, "more than {max_steps} steps needed (stopped at t = {t})")
             }
@@ -419,7 +418,7 @@ pub struct AdaptiveSolver<T> {
     /// The first stage of the next step (FSAL), `f(t, y)`.
     k0: Vec<T>,
     y_new: Vec<T>,
-    /// Tangent scratch: the error estimate, magnitudes of y and of y_new.
+    /// Tangent scratch: the error estimate, magnitudes of `y` and of `y_new`.
     err: Vec<T>,
     m0: Vec<T>,
     m1: Vec<T>,
@@ -523,21 +522,25 @@ impl<T: Real> AdaptiveSolver<T> {
                 "controller: need 0 < safety ≤ 1, 0 < min_factor ≤ 1 ≤ max_factor, 0 ≤ β < 1/k",
             ));
         }
-        if !(o.h_min >= T::ZERO) || !o.h_min.is_finite() {
+        if !o.h_min.is_finite() || o.h_min < T::ZERO {
             return Err(AdaptiveError::InvalidOption("h_min must be finite and ≥ 0"));
         }
         if let Some(h) = o.h_max
-            && !(h > T::ZERO)
+            && (h.is_nan() || h <= T::ZERO)
         {
             return Err(AdaptiveError::InvalidOption("h_max must be positive"));
         }
         if let Some(h) = o.h_init
-            && (!(h.abs() > T::ZERO) || !h.is_finite())
+            && (!h.is_finite() || h == T::ZERO)
         {
-            return Err(AdaptiveError::InvalidOption("h_init must be finite and non-zero"));
+            return Err(AdaptiveError::InvalidOption(
+                "h_init must be finite and non-zero",
+            ));
         }
         if o.checkpointing == Checkpointing::Every(0) {
-            return Err(AdaptiveError::InvalidOption("checkpoint interval must be ≥ 1"));
+            return Err(AdaptiveError::InvalidOption(
+                "checkpoint interval must be ≥ 1",
+            ));
         }
         Ok(())
     }
@@ -644,15 +647,14 @@ impl<T: Real> AdaptiveSolver<T> {
                     h: h.to_f64(),
                 });
             }
-            self.stepper
-                .eval_stages(field, t, h, &y, Some(&self.k0), s);
+            self.stepper.eval_stages(field, t, h, &y, Some(&self.k0), s);
             sol.stats.field_evals += s - 1;
             self.y_new.copy_from_slice(&y);
             self.stepper.advance(&self.b, h, &mut self.y_new);
             self.error_estimate(h);
             tangent_magnitudes(&self.layout, &self.y_new, &mut self.m1);
             let err = error_norm(&self.err, &self.m0, &self.m1, rtol, atol);
-            if !(err <= T::ONE) {
+            if err.is_nan() || err > T::ONE {
                 sol.stats.rejected += 1;
                 after_reject = true;
                 h *= control.reject_factor(err, k);

@@ -23,7 +23,15 @@ const Z: Rational = Rational::ZERO;
 const DOPRI5: Tableau = Tableau::new_const(
     "dopri5",
     7,
-    [r(0, 1), r(1, 5), r(3, 10), r(4, 5), r(8, 9), r(1, 1), r(1, 1)],
+    [
+        r(0, 1),
+        r(1, 5),
+        r(3, 10),
+        r(4, 5),
+        r(8, 9),
+        r(1, 1),
+        r(1, 1),
+    ],
     [
         [Z; 7],
         [r(1, 5), Z, Z, Z, Z, Z, Z],

@@ -301,9 +301,7 @@ pub fn by_name(
             beta: scalar("beta")?,
         }),
         "rigid_body" => match param("inertia").as_deref() {
-            Some(&[a, b, c]) => Box::new(EulerRates {
-                inertia: [a, b, c],
-            }),
+            Some(&[a, b, c]) => Box::new(EulerRates { inertia: [a, b, c] }),
             _ => return Err(ProblemError::Parameter("inertia")),
         },
         "forced_oscillator" => Box::new(ForcedOscillator {

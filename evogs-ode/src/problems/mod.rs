@@ -40,9 +40,7 @@ mod scalar;
 mod stiff;
 mod top;
 
-pub use classic::{
-    EulerRates, ForcedOscillator, Kepler, Lorenz, ProblemError, VanDerPol, by_name,
-};
+pub use classic::{EulerRates, ForcedOscillator, Kepler, Lorenz, ProblemError, VanDerPol, by_name};
 pub use linear::RotatingDecay;
 pub use oscillator::HarmonicOscillator;
 pub use rotation::{ConstantRate, ProblemK};

@@ -156,6 +156,11 @@ struct AdjointBuffers<T> {
 /// Euler tableau it is Lie–Euler `R ← Exp(hω)R`; with classical RK4 it is RKMK4. Both are
 /// exact (to rounding) for a constant rate.
 ///
+/// An FSAL tableau ([`Tableau::is_fsal`], the adaptive pairs) takes its last stage at the
+/// new state exactly as the update forms it (rotations renormalised), so that stage is
+/// bitwise `f(t_{n+1}, y_{n+1})`; [`step`](Self::step) evaluates only the stages the update
+/// uses (up to the last non-zero `bᵢ`).
+///
 /// The stepper owns every stage buffer: forward steps allocate nothing. The buffers of
 /// the reverse pass ([`Stepper::step_vjp`]) are allocated on its first call and reused.
 ///
@@ -287,7 +292,10 @@ impl<T: Real> Stepper<T> {
     /// The stages the update uses: up to the last non-zero weight `bᵢ` (an FSAL tableau's
     /// last stage only serves error estimates and dense output).
     pub(crate) fn needed_stages(&self) -> usize {
-        (0..self.s).rev().find(|&i| self.b[i] != T::ZERO).map_or(1, |i| i + 1)
+        (0..self.s)
+            .rev()
+            .find(|&i| self.b[i] != T::ZERO)
+            .map_or(1, |i| i + 1)
     }
 
     /// Stages `0..upto` from `(t, y)` into `k`; `K₀` is copied from `k0` when given (the
