@@ -111,7 +111,7 @@
 //!
 //! ## Example: an adaptive solve with dense output, and its adjoint
 //!
-//! Dormand–Prince on the Van der Pol oscillator (θ = [μ]), reported at times that are not
+//! Dormand–Prince on the Van der Pol oscillator (θ = (μ)), reported at times that are not
 //! steps; then the gradient of `L = x₀(2.5) + x₁(4)` with respect to the initial state, μ and
 //! the two output times, exact for the computed solution (steps held fixed).
 //!

@@ -11,7 +11,7 @@
 //! | gradients | [`AdaptiveSolver::adjoint`]: w.r.t. `y0`, θ and the output times |
 //! | failures | [`AdaptiveError`] (never a panic on bad input or a failing solve) |
 //!
-//! The steps run on the crate's one Runge–Kutta core ([`Stepper`](crate::Stepper)) with the
+//! The steps run on the crate's one Runge–Kutta core ([`Stepper`]) with the
 //! pair's tableau, so every block layout works: Euclidean blocks are integrated as usual and
 //! Lie-group blocks (SO(3)) by RKMK, the error estimate `h Σ (bᵢ − b̂ᵢ)Kᵢ` and the dense
 //! output `yₙ ⊕ h Σ bᵢ(θ)Kᵢ` both living in the tangent coordinates of the step.

@@ -11,7 +11,7 @@ use alloc::boxed::Box;
 use alloc::vec::Vec;
 use evogs_math::Real;
 
-/// Van der Pol's oscillator `x0' = x1`, `x1' = μ(1 − x0²)x1 − x0`; θ = [μ].
+/// Van der Pol's oscillator `x0' = x1`, `x1' = μ(1 − x0²)x1 − x0`; θ = (μ).
 ///
 /// Non-stiff for μ ≈ 1, increasingly stiff for large μ (an explicit pair then takes many
 /// rejected steps).
@@ -41,7 +41,7 @@ impl<T: Real> VectorField<T> for VanDerPol<T> {
 }
 
 /// The Kepler problem `q' = p`, `p' = −μ q/|q|³` in the plane, state `(qx, qy, px, py)`;
-/// θ = [μ] (μ = 1 in the reference file).
+/// θ = (μ) (μ = 1 in the reference file).
 ///
 /// [`Kepler::initial_state`] starts at perihelion with eccentricity e (period 2π for
 /// μ = 1): `(1 − e, 0, 0, sqrt((1 + e)/(1 − e)))`.
