@@ -163,8 +163,10 @@ enum Cmd {
         #[command(flatten)]
         frames: FrameArgs,
     },
-    /// Recompute reference-vector files (projection, raster, ode, so3, metrics) in f64 and
-    /// print, per file, every quantity's largest error against its tolerance.
+    /// Recompute reference-vector files (projection, raster, ode, ode adaptive, so3,
+    /// metrics) in f64 and print, per file, every quantity's largest error against its
+    /// tolerance (adaptive files: per problem, pair and tolerance, with the field
+    /// evaluations beside scipy's RK45).
     Verify {
         /// Reference files (JSON); the kind is recognised from the content.
         #[arg(required = true)]

@@ -9,8 +9,9 @@ use core::ops::{Add, Mul, Neg, Sub};
 
 /// A fraction `num/den` in lowest terms with `den > 0`.
 ///
-/// Arithmetic is exact on `i64` (tableau entries are small: no overflow in practice; an
-/// overflow panics in debug builds).
+/// Arithmetic is exact: intermediate products are formed in `i128` and reduced, so only a
+/// result whose lowest-terms numerator or denominator does not fit in `i64` panics
+/// (tableau entries, even Dormand–Prince's, are far from that).
 ///
 /// ```
 /// use evogs_ode::Rational;
@@ -95,10 +96,41 @@ impl Rational {
     }
 }
 
+const fn gcd128(mut a: i128, mut b: i128) -> i128 {
+    a = a.abs();
+    b = b.abs();
+    while b != 0 {
+        let t = a % b;
+        a = b;
+        b = t;
+    }
+    a
+}
+
+impl Rational {
+    /// `num/den` from wide intermediates, reduced; panics if the result does not fit.
+    fn from_wide(num: i128, den: i128) -> Self {
+        let g = gcd128(num, den);
+        let g = if g == 0 { 1 } else { g };
+        let s = if den < 0 { -1 } else { 1 };
+        let (n, d) = (s * num / g, s * den / g);
+        match (i64::try_from(n), i64::try_from(d)) {
+            (Ok(num), Ok(den)) => Self { num, den },
+            _ => panic!("rational overflow: {n}/{d} does not fit in i64"),
+        }
+    }
+}
+
 impl Add for Rational {
     type Output = Self;
     fn add(self, o: Self) -> Self {
-        Self::new(self.num * o.den + o.num * self.den, self.den * o.den)
+        let (a, b, c, d) = (
+            i128::from(self.num),
+            i128::from(self.den),
+            i128::from(o.num),
+            i128::from(o.den),
+        );
+        Self::from_wide(a * d + c * b, b * d)
     }
 }
 
@@ -122,7 +154,10 @@ impl Neg for Rational {
 impl Mul for Rational {
     type Output = Self;
     fn mul(self, o: Self) -> Self {
-        Self::new(self.num * o.num, self.den * o.den)
+        Self::from_wide(
+            i128::from(self.num) * i128::from(o.num),
+            i128::from(self.den) * i128::from(o.den),
+        )
     }
 }
 

@@ -26,7 +26,7 @@ use crate::Rational;
 use evogs_math::Real;
 
 /// The largest number of stages of a [`Tableau`].
-pub const MAX_STAGES: usize = 4;
+pub const MAX_STAGES: usize = 7;
 
 /// An explicit Runge–Kutta tableau (at most [`MAX_STAGES`] stages), entries exact.
 ///
@@ -130,20 +130,34 @@ impl Tableau {
         [r(1, 8), r(3, 8), r(3, 8), r(1, 8)],
     );
 
-    const fn new_const(
+    /// A tableau from `N`-entry arrays (`N ≤ MAX_STAGES`), padded with zeros.
+    pub(crate) const fn new_const<const N: usize>(
         name: &'static str,
         stages: usize,
-        c: [Rational; MAX_STAGES],
-        a: [[Rational; MAX_STAGES]; MAX_STAGES],
-        b: [Rational; MAX_STAGES],
+        c: [Rational; N],
+        a: [[Rational; N]; N],
+        b: [Rational; N],
     ) -> Self {
-        Self {
+        assert!(N <= MAX_STAGES && stages <= N, "too many stages");
+        let mut t = Self {
             name,
             stages,
-            c,
-            a,
-            b,
+            c: [Z; MAX_STAGES],
+            a: [[Z; MAX_STAGES]; MAX_STAGES],
+            b: [Z; MAX_STAGES],
+        };
+        let mut i = 0;
+        while i < N {
+            t.c[i] = c[i];
+            t.b[i] = b[i];
+            let mut j = 0;
+            while j < N {
+                t.a[i][j] = a[i][j];
+                j += 1;
+            }
+            i += 1;
         }
+        t
     }
 
     /// A user tableau with `stages = b.len()` stages; `a[i]` holds the entries
@@ -174,7 +188,8 @@ impl Tableau {
         if s == 0 || s > MAX_STAGES || c.len() != s || a.len() != s {
             return None;
         }
-        let mut t = Self::new_const(name, s, [Z; 4], [[Z; 4]; 4], [Z; 4]);
+        let mut t = Self::new_const(name, 0, [Z; 1], [[Z; 1]; 1], [Z; 1]);
+        t.stages = s;
         for i in 0..s {
             if a[i].len() != i {
                 return None;
@@ -216,6 +231,24 @@ impl Tableau {
         self.b[i]
     }
 
+    /// The weights `b` ([`MAX_STAGES`] entries, zero beyond the stages).
+    #[must_use]
+    pub const fn weights(&self) -> [Rational; MAX_STAGES] {
+        self.b
+    }
+
+    /// `true` for a "first same as last" tableau: the last row of `a` is `b`, the last node
+    /// is 1 and the last weight is 0, so the last stage is the field at the new state and
+    /// serves as the next step's first stage (Dormand–Prince, Bogacki–Shampine).
+    #[must_use]
+    pub fn is_fsal(&self) -> bool {
+        let s = self.stages;
+        s > 1
+            && self.c[s - 1] == Rational::ONE
+            && self.b[s - 1].is_zero()
+            && (0..s - 1).all(|j| self.a[s - 1][j] == self.b[j])
+    }
+
     /// `true` if every node equals its row sum, `cᵢ = Σⱼ a_ij` (needed for the tree
     /// conditions below to be the order conditions of non-autonomous problems).
     #[must_use]
@@ -227,22 +260,24 @@ impl Tableau {
     #[must_use]
     pub fn order_conditions(&self) -> [OrderCondition; 8] {
         let s = self.stages;
-        let dot = |u: &[Rational; 4], v: &[Rational; 4]| (0..s).fold(Z, |acc, i| acc + u[i] * v[i]);
-        let amul = |v: &[Rational; 4]| {
-            let mut out = [Z; 4];
+        let dot = |u: &[Rational; MAX_STAGES], v: &[Rational; MAX_STAGES]| {
+            (0..s).fold(Z, |acc, i| acc + u[i] * v[i])
+        };
+        let amul = |v: &[Rational; MAX_STAGES]| {
+            let mut out = [Z; MAX_STAGES];
             for i in 0..s {
                 out[i] = (0..s).fold(Z, |acc, j| acc + self.a[i][j] * v[j]);
             }
             out
         };
-        let elem = |u: &[Rational; 4], v: &[Rational; 4]| {
-            let mut out = [Z; 4];
+        let elem = |u: &[Rational; MAX_STAGES], v: &[Rational; MAX_STAGES]| {
+            let mut out = [Z; MAX_STAGES];
             for i in 0..s {
                 out[i] = u[i] * v[i];
             }
             out
         };
-        let one = [Rational::ONE; 4];
+        let one = [Rational::ONE; MAX_STAGES];
         let c = self.c;
         let c2 = elem(&c, &c);
         let c3 = elem(&c2, &c);
@@ -284,17 +319,18 @@ impl Tableau {
             .unwrap_or(0)
     }
 
-    /// Coefficients `γ₀ … γ₄` of the stability polynomial `R(z) = Σₖ γₖ zᵏ`:
-    /// `γ₀ = 1`, `γₖ = bᵀA^{k−1}𝟙` (zero beyond the number of stages).
+    /// Coefficients `γ₀ … γ₇` of the stability polynomial `R(z) = Σₖ γₖ zᵏ`:
+    /// `γ₀ = 1`, `γₖ = bᵀA^{k−1}𝟙` (zero beyond the number of stages; [`MAX_STAGES`] + 1
+    /// entries).
     #[must_use]
     pub fn stability_coefficients(&self) -> [Rational; MAX_STAGES + 1] {
         let s = self.stages;
         let mut out = [Z; MAX_STAGES + 1];
         out[0] = Rational::ONE;
-        let mut v = [Rational::ONE; 4];
+        let mut v = [Rational::ONE; MAX_STAGES];
         for slot in out.iter_mut().skip(1) {
             *slot = (0..s).fold(Z, |acc, i| acc + self.b[i] * v[i]);
-            let mut next = [Z; 4];
+            let mut next = [Z; MAX_STAGES];
             for i in 0..s {
                 next[i] = (0..s).fold(Z, |acc, j| acc + self.a[i][j] * v[j]);
             }
@@ -346,7 +382,8 @@ mod tests {
 
     #[test]
     fn both_rk4_have_the_taylor_stability_polynomial() {
-        let want = [r(1, 1), r(1, 1), r(1, 2), r(1, 6), r(1, 24)];
+        let mut want = [Z; MAX_STAGES + 1];
+        want[..5].copy_from_slice(&[r(1, 1), r(1, 1), r(1, 2), r(1, 6), r(1, 24)]);
         assert_eq!(Tableau::RK4.stability_coefficients(), want, "classical RK4");
         assert_eq!(Tableau::RK38.stability_coefficients(), want, "3/8 rule");
         let z = -0.3_f64;

@@ -64,6 +64,8 @@ pub mod raster_tiled;
 pub mod raster_tiled_vjp;
 pub mod render;
 pub mod ssim;
+#[cfg(feature = "proptest")]
+pub mod strategies;
 pub mod tile_lanes;
 pub mod window;
 

@@ -29,6 +29,7 @@ fn verify_every_reference_file() {
         Kind::Projection,
         Kind::Raster,
         Kind::Ode,
+        Kind::OdeAdaptive,
         Kind::So3,
         Kind::Se3,
         Kind::Metrics,

@@ -7,6 +7,7 @@
 //! | raster | `case.loss.W_rgb` | `render`, `render_vjp` (classic or antialiased) |
 //! | projection | `case.inputs.viewmat` and `case.outputs.conics`, no `case.loss` | `project`, `project_vjp` |
 //! | ode | `case.runs[].results` | `integrate_trajectory`, `discrete_adjoint`, `continuous_adjoint` |
+//! | ode adaptive | `problems[].scipy_rk45` | `adaptive::AdaptiveSolver` (`solve`, dense output, `adjoint`) |
 //! | so3 | `rotvec_cases` | `so3`, `so3_jacobians`, `so3_coeffs`, `update` |
 //! | se3 | `cases[].xi` | `Se3`, `se3`, `se3_jacobians` |
 //! | metrics | `cases[].ssim_3dgs` | `metrics`, `SsimWorkspace`, [`metrics::ssim_skimage`] |
@@ -29,6 +30,7 @@ pub mod expm;
 mod json;
 pub mod metrics;
 mod ode;
+mod ode_adaptive;
 mod projection;
 mod raster;
 mod report;
@@ -66,8 +68,8 @@ pub enum VerifyError {
     #[error(
         "{}: not a known reference-vector file (top-level keys: {found}); expected \
          `case.loss.W_rgb` (raster), `case.inputs.viewmat` with `case.outputs.conics` \
-         (projection), `case.runs[].results` (ode), `rotvec_cases` (so3), `cases[].xi` \
-         (se3) or `cases[].ssim_3dgs` (metrics)",
+         (projection), `case.runs[].results` (ode), `problems[].scipy_rk45` (ode adaptive), \
+         `rotvec_cases` (so3), `cases[].xi` (se3) or `cases[].ssim_3dgs` (metrics)",
         path.display()
     )]
     UnknownKind {
@@ -110,6 +112,9 @@ pub fn detect_kind(v: &Value) -> Option<Kind> {
     if has(first(case.and_then(|c| c.get("runs"))), "results") {
         return Some(Kind::Ode);
     }
+    if has(first(v.get("problems")), "scipy_rk45") {
+        return Some(Kind::OdeAdaptive);
+    }
     if v.get("rotvec_cases").is_some() {
         return Some(Kind::So3);
     }
@@ -142,6 +147,7 @@ pub fn verify_value(path: &Path, v: &Value) -> Result<FileReport, VerifyError> {
         Kind::Projection => projection::verify(&root),
         Kind::Raster => raster::verify(&root),
         Kind::Ode => ode::verify(&root),
+        Kind::OdeAdaptive => ode_adaptive::verify(&root),
         Kind::So3 => so3::verify(&root),
         Kind::Se3 => se3::verify(&root),
         Kind::Metrics => metrics::verify(&root),

@@ -90,6 +90,8 @@ pub enum Kind {
     Raster,
     /// `ode_*`: fixed-grid integrators, discrete and continuous adjoints.
     Ode,
+    /// `ode_adaptive_*`: adaptive pairs, dense output and the adaptive discrete adjoint.
+    OdeAdaptive,
     /// `so3_*`: exp/log maps, Jacobians and quaternion updates.
     So3,
     /// `se3_*`: SE(3) exp/log, Jacobians, adjoints, inverse, composition and action.
@@ -104,6 +106,7 @@ impl fmt::Display for Kind {
             Self::Projection => "projection",
             Self::Raster => "raster",
             Self::Ode => "ode",
+            Self::OdeAdaptive => "ode adaptive",
             Self::So3 => "so3",
             Self::Se3 => "se3",
             Self::Metrics => "metrics",

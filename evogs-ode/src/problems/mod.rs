@@ -22,9 +22,20 @@
 //! | [`PropelledTop`] | SE(3) × ℝ³ | symmetric top moving along its axis, closed form |
 //! | [`DissipativePair`] | ℝ² | stiff decay: breaks the backsolve continuous adjoint |
 //!
+//! Without closed forms, for adaptive solvers and the adaptive reference file ([`by_name`]):
+//!
+//! | problem | layout | why |
+//! |---|---|---|
+//! | [`VanDerPol`] | ℝ² | relaxation oscillation; stiff for large μ (rejections) |
+//! | [`Kepler`] | ℝ⁴ | eccentric orbits: step sizes vary by orders of magnitude |
+//! | [`Lorenz`] | ℝ³ | chaotic: sensitivities grow fast |
+//! | [`EulerRates`] | ℝ³ | Euler's equations of the free rigid body (rates only) |
+//! | [`ForcedOscillator`] | ℝ² | non-autonomous, modulated stiffness |
+//!
 //! Methods of an order p show slope p on each of them (see [`crate::order`]); a linear
 //! problem alone cannot tell a fake RK4 from a real one (ode-lie.md §2.1).
 
+mod classic;
 mod linear;
 mod oscillator;
 mod rotation;
@@ -33,6 +44,7 @@ mod se3;
 mod stiff;
 mod top;
 
+pub use classic::{EulerRates, ForcedOscillator, Kepler, Lorenz, ProblemError, VanDerPol, by_name};
 pub use linear::RotatingDecay;
 pub use oscillator::HarmonicOscillator;
 pub use rotation::{ConstantRate, ProblemK};

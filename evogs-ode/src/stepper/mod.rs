@@ -68,6 +68,20 @@ impl<T: Real> Combo<T> {
         Self { terms, len }
     }
 
+    /// The terms `(i, w[i])` with `w[i] ≠ 0` or `keep[i]`: a weight of a dual number can
+    /// compare equal to zero (its real part) and still carry a derivative.
+    fn with_kept(w: &[T], keep: &[bool]) -> Self {
+        let mut terms = [(0, T::ZERO); MAX_STAGES];
+        let mut len = 0;
+        for (j, (&wj, &k)) in w.iter().zip(keep).enumerate() {
+            if k || wj != T::ZERO {
+                terms[len] = (j, wj);
+                len += 1;
+            }
+        }
+        Self { terms, len }
+    }
+
     #[inline]
     fn terms(&self) -> &[(usize, T)] {
         &self.terms[..self.len]
@@ -153,6 +167,11 @@ struct AdjointBuffers<T> {
 /// (`Ṫ = ξ̂T`) and the closed-form SE(3) `Jl⁻¹` ([`evogs_math::se3_jacobians`]), so the
 /// methods keep their orders on SE(3) and on products with vector spaces.
 ///
+/// An FSAL tableau ([`Tableau::is_fsal`], the adaptive pairs) takes its last stage at the
+/// new state exactly as the update forms it (rotations renormalised), so that stage is
+/// bitwise `f(t_{n+1}, y_{n+1})`; [`step`](Self::step) evaluates only the stages the update
+/// uses (up to the last non-zero `bᵢ`).
+///
 /// The stepper owns every stage buffer: forward steps allocate nothing. The buffers of
 /// the reverse pass ([`Stepper::step_vjp`]) are allocated on its first call and reused.
 ///
@@ -178,6 +197,8 @@ pub struct Stepper<T> {
     /// Tangent length.
     n: usize,
     euclidean: bool,
+    /// The tableau is FSAL ([`Tableau::is_fsal`]): its last stage is taken at the new state.
+    fsal: bool,
     par: Par,
     /// Stage slopes `Kᵢ` (s·n).
     k: Vec<T>,
@@ -185,6 +206,9 @@ pub struct Stepper<T> {
     x: Vec<T>,
     /// Stage increments `Ωᵢ` of the current stage (n; SO(3) entries).
     omega: Vec<T>,
+    /// FSAL tableaux on non-Euclidean layouts: the last stage's field value `f(t_{n+1},
+    /// y_{n+1})` before `Jl⁻¹` (the next step's `K₀`).
+    fsal_f: Vec<T>,
     adj: AdjointBuffers<T>,
 }
 
@@ -221,10 +245,16 @@ impl<T: Real> Stepper<T> {
             count: layout.count(),
             n,
             euclidean: layout.is_euclidean(),
+            fsal: tableau.is_fsal(),
             par: Par::Seq,
             k: vec![T::ZERO; s * n],
             x: vec![T::ZERO; layout.ambient_len()],
             omega: vec![T::ZERO; n],
+            fsal_f: if tableau.is_fsal() && !layout.is_euclidean() {
+                vec![T::ZERO; n]
+            } else {
+                Vec::new()
+            },
             adj: AdjointBuffers::default(),
         }
     }
@@ -266,18 +296,95 @@ impl<T: Real> Stepper<T> {
     /// If `y` or the field do not match the stepper's layout.
     pub fn step<F: VectorField<T> + ?Sized>(&mut self, field: &mut F, t: T, h: T, y: &mut [T]) {
         self.check(field, y);
+        self.eval_stages(field, t, h, y, None, self.needed_stages());
+        self.update(h, y);
+    }
+
+    /// The stages the update uses: up to the last non-zero weight `bᵢ` (an FSAL tableau's
+    /// last stage only serves error estimates and dense output).
+    pub(crate) fn needed_stages(&self) -> usize {
+        (0..self.s)
+            .rev()
+            .find(|&i| self.b[i] != T::ZERO)
+            .map_or(1, |i| i + 1)
+    }
+
+    /// Stages `0..upto` from `(t, y)` into `k`; `K₀` is copied from `k0` when given (the
+    /// previous step's last stage of an FSAL pair, `f(t, y)`).
+    pub(crate) fn eval_stages<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y: &[T],
+        k0: Option<&[T]>,
+        upto: usize,
+    ) {
         let n = self.n;
-        for i in 0..self.s {
+        for i in 0..upto {
             let ti = t + self.c[i] * h;
             if i == 0 {
-                field.eval(ti, y, &mut self.k[..n]);
+                match k0 {
+                    Some(k0) => self.k[..n].copy_from_slice(k0),
+                    None => field.eval(ti, y, &mut self.k[..n]),
+                }
             } else {
-                self.stage_state(i, h, y);
+                self.stage_point(i, h, y);
                 field.eval(ti, &self.x, &mut self.k[i * n..(i + 1) * n]);
+                if i + 1 == self.s && !self.fsal_f.is_empty() {
+                    self.fsal_f.copy_from_slice(&self.k[i * n..(i + 1) * n]);
+                }
                 self.dexp_inv(i);
             }
         }
-        self.update(h, y);
+    }
+
+    /// After all stages of an FSAL tableau: `f(t_{n+1}, y_{n+1})`, the next step's `K₀`.
+    pub(crate) fn fsal_slope(&self) -> &[T] {
+        if self.fsal_f.is_empty() {
+            &self.k[(self.s - 1) * self.n..]
+        } else {
+            &self.fsal_f
+        }
+    }
+
+    /// `Xᵢ` and `Ωᵢ` of stage `i > 0`. The last stage of an FSAL tableau is taken at the
+    /// new state `yₙ ⊕ h Σ bⱼKⱼ` exactly as the update forms it (on Euclidean entries that
+    /// is bitwise `Xᵢ`; rotations are renormalised), so that it is bitwise `f(t_{n+1},
+    /// y_{n+1})`, the next step's first stage.
+    fn stage_point(&mut self, i: usize, h: T, y: &[T]) {
+        self.stage_state(i, h, y);
+        if self.fsal && !self.euclidean && i + 1 == self.s {
+            let combo = Combo::new((0..self.s).map(|j| (j, self.b[j])));
+            let mut x = core::mem::take(&mut self.x);
+            x.copy_from_slice(y);
+            self.apply(&combo, h, &mut x);
+            self.x = x;
+        }
+    }
+
+    /// `y ← y ⊕ h Σ wᵢKᵢ` with the stage slopes of the last step (`w`: one weight per
+    /// stage): the update with other weights, e.g. a continuous extension.
+    pub(crate) fn advance(&self, w: &[T], h: T, y: &mut [T]) {
+        let combo = Combo::new(w.iter().copied().enumerate());
+        self.apply(&combo, h, y);
+    }
+
+    /// [`advance`](Self::advance) keeping the terms marked in `keep` even at weight zero
+    /// (continuous extensions in dual numbers: `b₇(1) = 0` but `b₇'(1) = 1`).
+    pub(crate) fn advance_kept(&self, w: &[T], keep: &[bool], h: T, y: &mut [T]) {
+        let combo = Combo::with_kept(w, keep);
+        self.apply(&combo, h, y);
+    }
+
+    /// The stage slopes `Kᵢ` of the last step (`s` tangent vectors, stage-major).
+    pub(crate) fn slopes(&self) -> &[T] {
+        &self.k
+    }
+
+    /// The weights `bᵢ` as floats (`s` entries).
+    pub(crate) fn weights(&self) -> &[T] {
+        &self.b[..self.s]
     }
 
     fn check<F: VectorField<T> + ?Sized>(&self, field: &F, y: &[T]) {
@@ -397,6 +504,11 @@ impl<T: Real> Stepper<T> {
     /// `T ← Exp(h Σ bᵢKᵢ)·T` then `|q| ← 1` (SE(3)).
     fn update(&mut self, h: T, y: &mut [T]) {
         let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
+        self.apply(&combo, h, y);
+    }
+
+    /// `y ← y + h Σ wᵢKᵢ` (Euclidean), `R ← Exp(h Σ wᵢKᵢ)·R` then `|q| ← 1` (SO(3)).
+    fn apply(&self, combo: &Combo<T>, h: T, y: &mut [T]) {
         let (pat, n, k) = (self.pat, self.n, &self.k);
         if self.euclidean {
             for_chunks1(self.par, self.count, y, pat.pa, |p0, _, yc| {

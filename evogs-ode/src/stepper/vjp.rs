@@ -91,11 +91,72 @@ impl<T: Real> Stepper<T> {
             field.n_params(),
             "parameter-gradient length differs from the field"
         );
+        let upto = self.needed_stages();
+        self.vjp_begin(field, t, h, y_n, upto);
+        let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
+        self.update_vjp(&combo, h, lambda);
+        self.add_kbar(&combo, h);
+        self.vjp_stages(field, t, h, y_n, upto, lambda, d_params);
+    }
+
+    /// Starts the reverse pass of a step from `(t, y_n)`: recomputes stages `0..upto`
+    /// and clears the stage cotangents `K̄ᵢ`. Then [`vjp_update`](Self::vjp_update) once
+    /// per update term that read the stages, then [`vjp_stages`](Self::vjp_stages).
+    pub(crate) fn vjp_begin<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y_n: &[T],
+        upto: usize,
+    ) {
         self.ensure_adjoint_buffers();
-        self.recompute_stages(field, t, h, y_n);
-        self.update_vjp(h, lambda);
+        self.recompute_stages(field, t, h, y_n, upto);
+        self.adj.kbar.fill(T::ZERO);
+    }
+
+    /// Transposes one update term `y_n ⊕ h Σ wᵢKᵢ` (the step's own with `w = b`, or a
+    /// continuous extension's): `lambda` (on entry the cotangent at the term's value) is
+    /// replaced by its pull-back through `y_n ⊕ ·` alone, and `K̄ᵢ += h wᵢ Ω̄`. Returns
+    /// `⟨Ω̄, h Σ dwᵢKᵢ⟩`, the derivative of the loss along a change `dw` of the weights (0
+    /// without `dw`).
+    pub(crate) fn vjp_update(&mut self, w: &[T], dw: Option<&[T]>, h: T, lambda: &mut [T]) -> T {
+        let combo = Combo::new(w.iter().copied().enumerate());
+        self.update_vjp(&combo, h, lambda);
+        self.add_kbar(&combo, h);
+        let Some(dw) = dw else {
+            return T::ZERO;
+        };
         let n = self.n;
-        for i in (0..self.s).rev() {
+        let mut acc = T::ZERO;
+        for (i, &d) in dw.iter().enumerate() {
+            if d == T::ZERO {
+                continue;
+            }
+            let mut part = T::ZERO;
+            for (o, k) in self.adj.obar.iter().zip(&self.k[i * n..(i + 1) * n]) {
+                part += *o * *k;
+            }
+            acc += h * d * part;
+        }
+        acc
+    }
+
+    /// The stage loop of the reverse pass (stages `upto − 1, …, 0`): adds the cotangent at
+    /// `y_n` carried by the stages into `lambda` and the parameter gradient into
+    /// `d_params`.
+    pub(crate) fn vjp_stages<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y_n: &[T],
+        upto: usize,
+        lambda: &mut [T],
+        d_params: &mut [T],
+    ) {
+        let n = self.n;
+        for i in (0..upto).rev() {
             let ti = t + self.c[i] * h;
             self.adj.xbar.fill(T::ZERO);
             if i == 0 {
@@ -107,7 +168,7 @@ impl<T: Real> Stepper<T> {
                 }
                 continue;
             }
-            self.stage_state(i, h, y_n);
+            self.stage_point(i, h, y_n);
             if self.euclidean {
                 let kbar_i = &self.adj.kbar[i * n..(i + 1) * n];
                 field.vjp(ti, &self.x, kbar_i, &mut self.adj.xbar, d_params);
@@ -135,15 +196,22 @@ impl<T: Real> Stepper<T> {
         }
     }
 
-    /// The forward stages again, keeping the field outputs `Fᵢ` next to `Kᵢ`.
-    fn recompute_stages<F: VectorField<T> + ?Sized>(&mut self, field: &mut F, t: T, h: T, y: &[T]) {
+    /// The forward stages `0..upto` again, keeping the field outputs `Fᵢ` next to `Kᵢ`.
+    fn recompute_stages<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y: &[T],
+        upto: usize,
+    ) {
         let n = self.n;
-        for i in 0..self.s {
+        for i in 0..upto {
             let ti = t + self.c[i] * h;
             if i == 0 {
                 field.eval(ti, y, &mut self.adj.f[..n]);
             } else {
-                self.stage_state(i, h, y);
+                self.stage_point(i, h, y);
                 field.eval(ti, &self.x, &mut self.adj.f[i * n..(i + 1) * n]);
             }
             self.k[i * n..(i + 1) * n].copy_from_slice(&self.adj.f[i * n..(i + 1) * n]);
@@ -153,10 +221,10 @@ impl<T: Real> Stepper<T> {
         }
     }
 
-    /// Transposes the update: `λ ← Exp(Ω)ᵀλ` (SO(3)) or `λ ← Ad(Exp(Ω))ᵀλ` (SE(3)) and
-    /// `Ω̄ = Jl(Ω)ᵀλ` on Lie-group blocks, `Ω̄ = λ` on Euclidean ones; then `K̄ᵢ = h bᵢ Ω̄`.
-    fn update_vjp(&mut self, h: T, lambda: &mut [T]) {
-        let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
+    /// Transposes the update `y ⊕ Ω` with `Ω = h Σ wᵢKᵢ`: `λ ← Exp(Ω)ᵀλ` (SO(3)) or
+    /// `λ ← Ad(Exp(Ω))ᵀλ` (SE(3)) and `Ω̄ = Jl(Ω)ᵀλ` on Lie-group blocks, `Ω̄ = λ` on
+    /// Euclidean ones.
+    fn update_vjp(&mut self, combo: &Combo<T>, h: T, lambda: &mut [T]) {
         let (pat, n, k) = (self.pat, self.n, &self.k);
         for_chunks2(
             self.par,
@@ -192,13 +260,18 @@ impl<T: Real> Stepper<T> {
                 }
             },
         );
-        for i in 0..self.s {
-            let hb = h * self.b[i];
+    }
+
+    /// `K̄ᵢ += h wᵢ Ω̄` for the weights of an update term.
+    fn add_kbar(&mut self, combo: &Combo<T>, h: T) {
+        let n = self.n;
+        for &(i, w) in combo.terms() {
+            let hw = h * w;
             for (kb, ob) in self.adj.kbar[i * n..(i + 1) * n]
                 .iter_mut()
                 .zip(&self.adj.obar)
             {
-                *kb = hb * *ob;
+                *kb += hw * *ob;
             }
         }
     }

@@ -427,3 +427,62 @@ impl Loss {
         g
     }
 }
+
+/// The dual parts of an ambient dual state as a tangent vector: Euclidean entries as they
+/// are; SO(3): `dq = ½(0, ε)⊗q` ⇒ `ε = 2 vec(dq ⊗ q*)`; SE(3) under the left update
+/// `Exp(δ)·T`, δ = (ρ, φ): `φ` as on SO(3) and `dt = φ × t + ρ` ⇒ `ρ = dt − φ × t`.
+pub(crate) fn dual_tangent(layout: &StateLayout, y: &[evogs_math::Dual<f64>], out: &mut [f64]) {
+    let (pa, pt) = (layout.particle_ambient_len(), layout.particle_tangent_len());
+    for p in 0..layout.count() {
+        for sp in layout.spans() {
+            let (o, ot) = (p * pa + sp.ambient, p * pt + sp.tangent);
+            match sp.block {
+                Block::Euclidean(k) => {
+                    for e in 0..k {
+                        out[ot + e] = y[o + e].eps;
+                    }
+                }
+                Block::So3 => {
+                    let q = Quat::new(y[o].re, y[o + 1].re, y[o + 2].re, y[o + 3].re);
+                    let dq = Quat::new(y[o].eps, y[o + 1].eps, y[o + 2].eps, y[o + 3].eps);
+                    (dq.mul_quat(q.conj()).vec() * 2.0).write_to(&mut out[ot..]);
+                }
+                Block::Se3 => {
+                    let q = Quat::new(y[o].re, y[o + 1].re, y[o + 2].re, y[o + 3].re);
+                    let dq = Quat::new(y[o].eps, y[o + 1].eps, y[o + 2].eps, y[o + 3].eps);
+                    let t = Vec3::new(y[o + 4].re, y[o + 5].re, y[o + 6].re);
+                    let dt = Vec3::new(y[o + 4].eps, y[o + 5].eps, y[o + 6].eps);
+                    let phi = dq.mul_quat(q.conj()).vec() * 2.0;
+                    (dt - phi.cross(t)).write_to(&mut out[ot..]);
+                    phi.write_to(&mut out[ot + 3..]);
+                }
+            }
+        }
+    }
+}
+
+/// A field wrapper that counts evaluations.
+#[derive(Clone, Debug)]
+pub(crate) struct Counting<F> {
+    pub(crate) inner: F,
+    pub(crate) evals: usize,
+}
+
+impl<T: Real, F: VectorField<T>> VectorField<T> for Counting<F> {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+    fn layout(&self) -> StateLayout {
+        self.inner.layout()
+    }
+    fn n_params(&self) -> usize {
+        self.inner.n_params()
+    }
+    fn eval(&mut self, t: T, y: &[T], dydt: &mut [T]) {
+        self.evals += 1;
+        self.inner.eval(t, y, dydt);
+    }
+    fn vjp(&mut self, t: T, y: &[T], w: &[T], d_y: &mut [T], d_params: &mut [T]) {
+        self.inner.vjp(t, y, w, d_y, d_params);
+    }
+}
