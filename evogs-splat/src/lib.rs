@@ -26,7 +26,9 @@
 //! to be read; the tiled rasterizer bins Gaussians into 16×16 tiles (a stable counting sort
 //! by tile then depth), evaluates 4×4 pixel groups in loops the compiler vectorises, and
 //! reduces per-Gaussian gradients in a fixed order (no atomics), so sequential and rayon runs
-//! are bitwise identical. Both make exactly the same decisions; their images agree bitwise.
+//! are bitwise identical. Both make exactly the same decisions and their images agree bitwise
+//! (in `f32` with [`ExpMode::Exact`]; the default fast `f32` exponential can move a value by an
+//! ulp).
 //!
 //! ```
 //! use evogs_splat::{benchmark_scene, render_tiled, render_tiled_vjp, PixelGrad, RenderOptions, TiledRasterizer};

@@ -38,17 +38,33 @@ pub enum FieldSpec {
     Translate(Vec3<f64>),
 }
 
+/// The comma-separated finite numbers of `s`.
 fn numbers(s: &str, what: &str) -> Result<Vec<f64>, String> {
     s.split(',')
         .map(|v| {
             v.trim()
                 .parse::<f64>()
-                .map_err(|_| format!("{what}: `{v}` is not a number"))
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| format!("{what}: `{v}` is not a finite number"))
         })
         .collect()
 }
 
-/// Parses `sphere:CX,CY,CZ,R` or `box:X0,Y0,Z0,X1,Y1,Z1`, with an optional `,soft=W` edge.
+/// `v` in `f32` (masks and fields are evaluated in the renderer's precision), if it stays
+/// finite.
+fn to_f32(v: f64, what: &str, s: &str) -> Result<f32, String> {
+    #[allow(clippy::cast_possible_truncation, reason = "f32 rendering")]
+    let x = v as f32;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("{what} `{s}`: {v} is beyond the f32 range"))
+    }
+}
+
+/// Parses `sphere:CX,CY,CZ,R` or `box:X0,Y0,Z0,X1,Y1,Z1`, with an optional `,soft=W` edge
+/// (`W > 0`). The numbers must be finite in `f32`, and the shape non-empty there.
 ///
 /// # Errors
 /// A malformed specification.
@@ -58,26 +74,29 @@ pub fn parse_mask(s: &str) -> Result<Mask<f32>, String> {
     })?;
     let (rest, edge) = match rest.split_once(",soft=") {
         Some((r, w)) => {
-            let w: f32 = w
+            let w = w
                 .trim()
-                .parse()
-                .map_err(|_| format!("mask `{s}`: bad soft width"))?;
+                .parse::<f32>()
+                .ok()
+                .filter(|w| w.is_finite() && *w > 0.0)
+                .ok_or_else(|| format!("mask `{s}`: the soft width must be a number > 0"))?;
             (r, Edge::Soft { width: w })
         }
         None => (rest, Edge::Hard),
     };
-    let v = numbers(rest, "mask")?;
-    #[allow(clippy::cast_possible_truncation, reason = "f32 rendering")]
-    let f = |i: usize| v[i] as f32;
+    let v = numbers(rest, "mask")?
+        .into_iter()
+        .map(|x| to_f32(x, "mask", s))
+        .collect::<Result<Vec<f32>, _>>()?;
     match (kind, v.len()) {
         ("sphere", 4) if v[3] > 0.0 => Ok(Mask::Sphere {
-            center: Vec3::new(f(0), f(1), f(2)),
-            radius: f(3),
+            center: Vec3::new(v[0], v[1], v[2]),
+            radius: v[3],
             edge,
         }),
         ("box", 6) if v[0] < v[3] && v[1] < v[4] && v[2] < v[5] => Ok(Mask::Box {
-            min: Vec3::new(f(0), f(1), f(2)),
-            max: Vec3::new(f(3), f(4), f(5)),
+            min: Vec3::new(v[0], v[1], v[2]),
+            max: Vec3::new(v[3], v[4], v[5]),
             edge,
         }),
         _ => Err(format!(
@@ -97,17 +116,26 @@ pub fn parse_field(s: &str) -> Result<FieldSpec, String> {
     let v = numbers(rest, "field")?;
     match (kind, v.len()) {
         ("rotate", 4 | 7) => {
-            let axis = Vec3::new(v[0], v[1], v[2]);
-            if axis.norm() == 0.0 {
+            // Divided by its largest entry first, so that neither a huge nor a tiny axis
+            // overflows or underflows its norm.
+            let big = v[0].abs().max(v[1].abs()).max(v[2].abs());
+            if big == 0.0 {
                 return Err(format!("field `{s}`: the rotation axis is zero"));
             }
+            let axis = Vec3::new(v[0] / big, v[1] / big, v[2] / big);
             let center = (v.len() == 7).then(|| Vec3::new(v[4], v[5], v[6]));
-            Ok(FieldSpec::Rotate {
-                omega: axis * (v[3] / axis.norm()),
-                center,
-            })
+            let omega = axis * (v[3] / axis.norm());
+            for x in omega.to_array().into_iter().chain(v[4..].iter().copied()) {
+                to_f32(x, "field", s)?;
+            }
+            Ok(FieldSpec::Rotate { omega, center })
         }
-        ("translate", 3) => Ok(FieldSpec::Translate(Vec3::new(v[0], v[1], v[2]))),
+        ("translate", 3) => {
+            for &x in &v {
+                to_f32(x, "field", s)?;
+            }
+            Ok(FieldSpec::Translate(Vec3::new(v[0], v[1], v[2])))
+        }
         _ => Err(format!(
             "field `{s}`: expected rotate:AX,AY,AZ,RATE[,CX,CY,CZ] or translate:UX,UY,UZ"
         )),
@@ -261,5 +289,50 @@ mod tests {
             matches!(parse_field("translate:1,0,0"), Ok(FieldSpec::Translate(_))),
             "translate"
         );
+    }
+
+    /// Every number of a mask or field must be finite, also in `f32`, a soft edge
+    /// positive, a box non-empty in `f32`, and a rotation axis of any finite scale is
+    /// normalised without overflow or underflow.
+    #[test]
+    fn specs_reject_non_finite_and_degenerate_numbers() {
+        for bad in [
+            "sphere:nan,0,0,1",
+            "sphere:0,inf,0,1",
+            "sphere:0,0,0,inf",
+            "sphere:1e39,0,0,1",
+            "sphere:0,0,0,1,soft=0",
+            "sphere:0,0,0,1,soft=-0.1",
+            "sphere:0,0,0,1,soft=nan",
+            "box:0,0,0,1,1,nan",
+            "box:0,0,1,1,1,1.00000000001",
+        ] {
+            assert!(parse_mask(bad).is_err(), "mask `{bad}` accepted");
+        }
+        for bad in [
+            "rotate:nan,0,1,1",
+            "rotate:0,0,1,inf",
+            "rotate:0,0,1,1,0,nan,0",
+            "translate:1,-inf,0",
+            "translate:1e39,0,0",
+            "rotate:0,0,1,1e39",
+            "rotate:0,0,1,1,0,0,-1e300",
+        ] {
+            assert!(parse_field(bad).is_err(), "field `{bad}` accepted");
+        }
+        for (axis, rate) in [
+            ("1e300,1e300,0", 2.0),
+            ("1e-320,0,0", 1.5),
+            ("0,3e-310,4e-310", -1.0),
+        ] {
+            match parse_field(&format!("rotate:{axis},{rate}")) {
+                Ok(FieldSpec::Rotate { omega, .. }) => assert!(
+                    (omega.norm() - f64::abs(rate)).abs() < 1e-12,
+                    "axis {axis}: |ω| = {} for rate {rate}",
+                    omega.norm()
+                ),
+                other => panic!("axis {axis}: {other:?}"),
+            }
+        }
     }
 }

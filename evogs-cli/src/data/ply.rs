@@ -1,15 +1,42 @@
 //! A small PLY reader and writer for vertex tables: point clouds (`points3d.ply`) and the
 //! standard 3DGS Gaussian layout (splatting.md D).
 //!
-//! Reads `ascii` and `binary_little_endian` files with scalar vertex properties of any
-//! numeric type (`char`…`double`, also the `int8`…`float64` spellings); list properties and
-//! elements other than `vertex` are skipped when they come after the vertices (as in every
-//! point-cloud file) and rejected otherwise. Writes binary little-endian `float` tables.
-//! Properties are matched **by name**.
+//! Reads `ascii` and `binary_little_endian` files (format version 1.0). The `vertex` element
+//! must have scalar properties of any numeric type (`char`…`double`, also the
+//! `int8`…`float64` spellings); other elements, with scalar or list properties, may come
+//! before or after it and are checked and skipped. Writes binary little-endian `float`
+//! tables. Properties are matched **by name**.
+//!
+//! The reader is strict, because its input comes from other tools and a bad table otherwise
+//! surfaces much later as a NaN in training:
+//! - the sizes the header declares are checked against the body, with checked arithmetic,
+//!   **before** anything is allocated (a header declaring 4·10⁹ vertices fails at once);
+//! - a binary body must end exactly after the last element, an ASCII body must hold exactly
+//!   one row per declared record, each with exactly its properties' values;
+//! - integer properties must be integers within their type, and every vertex value must be
+//!   finite; the positions `x`, `y`, `z` must lie within ±[`MAX_POSITION`];
+//! - errors are one line naming the element, the row and the property where there is one.
+//!
+//! Why not a PLY crate: `ply-rs` (and its `ply-rs-bw` fork) and `serde-ply` read ASCII and
+//! binary files and write them, but their documentation promises none of the checks above,
+//! `ply-rs` has had no release since 2020, and `serde-ply` decodes into fixed `serde`
+//! structs while this reader serves tables whose columns are only known by name (the 3DGS
+//! layout has 3·(d+1)² SH columns). A validation layer over either would be as long as
+//! this reader, which is small, fuzzed (`fuzz/`, target `ply_parse`) and tested below.
 
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
+
+/// Largest magnitude accepted for the position properties `x`, `y` and `z`: scenes are
+/// normalised to a few units, so anything beyond is a corrupt or foreign file.
+pub const MAX_POSITION: f64 = 1e6;
+
+/// The properties holding positions (checked against [`MAX_POSITION`]).
+const POSITION_NAMES: [&str; 3] = ["x", "y", "z"];
+
+/// Longest excerpt of the input quoted in an error message.
+const QUOTE_CHARS: usize = 40;
 
 /// A vertex table: named columns of equal length.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -33,7 +60,7 @@ pub enum PlyError {
         /// Cause.
         source: std::io::Error,
     },
-    /// The file is not a PLY file the reader supports.
+    /// The file is not a PLY file the reader supports, or holds values it rejects.
     #[error("{path}: malformed PLY: {msg}")]
     Malformed {
         /// File.
@@ -43,7 +70,15 @@ pub enum PlyError {
     },
 }
 
-#[derive(Clone, Copy)]
+/// The body encodings the reader supports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    Ascii,
+    BinaryLittleEndian,
+}
+
+/// A PLY scalar type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Scalar {
     I8,
     U8,
@@ -69,6 +104,7 @@ impl Scalar {
             _ => return None,
         })
     }
+
     const fn size(self) -> usize {
         match self {
             Self::I8 | Self::U8 => 1,
@@ -77,6 +113,26 @@ impl Scalar {
             Self::F64 => 8,
         }
     }
+
+    /// The PLY spelling.
+    const fn name(self) -> &'static str {
+        match self {
+            Self::I8 => "char",
+            Self::U8 => "uchar",
+            Self::I16 => "short",
+            Self::U16 => "ushort",
+            Self::I32 => "int",
+            Self::U32 => "uint",
+            Self::F32 => "float",
+            Self::F64 => "double",
+        }
+    }
+
+    const fn is_integer(self) -> bool {
+        !matches!(self, Self::F32 | Self::F64)
+    }
+
+    /// The value of `b`, which holds exactly [`size`](Self::size) bytes.
     fn read_le(self, b: &[u8]) -> f64 {
         match self {
             Self::I8 => f64::from(i8::from_le_bytes([b[0]])),
@@ -88,6 +144,101 @@ impl Scalar {
             Self::F32 => f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
             Self::F64 => f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]),
         }
+    }
+
+    /// An ASCII token of this type: integers must be integers within the type's range.
+    fn parse_ascii(self, t: &str) -> Option<f64> {
+        let int = |lo: i64, hi: i64| {
+            #[allow(
+                clippy::cast_precision_loss,
+                reason = "PLY integers have at most 32 bits: exact in f64"
+            )]
+            t.parse::<i64>()
+                .ok()
+                .filter(|v| (lo..=hi).contains(v))
+                .map(|v| v as f64)
+        };
+        match self {
+            Self::I8 => int(i64::from(i8::MIN), i64::from(i8::MAX)),
+            Self::U8 => int(0, i64::from(u8::MAX)),
+            Self::I16 => int(i64::from(i16::MIN), i64::from(i16::MAX)),
+            Self::U16 => int(0, i64::from(u16::MAX)),
+            Self::I32 => int(i64::from(i32::MIN), i64::from(i32::MAX)),
+            Self::U32 => int(0, i64::from(u32::MAX)),
+            // Read as `f64` (the value the text names), but within the `float` range.
+            Self::F32 => t
+                .parse::<f64>()
+                .ok()
+                .filter(|v| !v.is_finite() || v.abs() <= f64::from(f32::MAX)),
+            Self::F64 => t.parse::<f64>().ok(),
+        }
+    }
+}
+
+/// A property of an element.
+#[derive(Clone, Debug)]
+enum Property {
+    /// One value.
+    Scalar { name: String, ty: Scalar },
+    /// A length of integer type `count`, then that many values of type `item`.
+    List {
+        name: String,
+        count: Scalar,
+        item: Scalar,
+    },
+}
+
+impl Property {
+    fn name(&self) -> &str {
+        match self {
+            Self::Scalar { name, .. } | Self::List { name, .. } => name,
+        }
+    }
+
+    /// The fewest bytes a binary record of this property takes (an empty list).
+    const fn min_size(&self) -> usize {
+        match self {
+            Self::Scalar { ty, .. } => ty.size(),
+            Self::List { count, .. } => count.size(),
+        }
+    }
+}
+
+/// An element declared in the header.
+#[derive(Clone, Debug)]
+struct Element {
+    name: String,
+    count: usize,
+    props: Vec<Property>,
+}
+
+impl Element {
+    fn has_lists(&self) -> bool {
+        self.props
+            .iter()
+            .any(|p| matches!(p, Property::List { .. }))
+    }
+}
+
+/// The parsed header.
+#[derive(Debug)]
+struct Header {
+    format: Format,
+    elements: Vec<Element>,
+    /// Index of the `vertex` element in `elements`.
+    vertex: usize,
+    /// Offset of the body in the file.
+    body_start: usize,
+}
+
+/// `s` for an error message: at most [`QUOTE_CHARS`] characters.
+fn quote(s: &str) -> String {
+    if s.chars().count() <= QUOTE_CHARS {
+        s.to_string()
+    } else {
+        let mut q: String = s.chars().take(QUOTE_CHARS).collect();
+        q.push('…');
+        q
     }
 }
 
@@ -101,10 +252,10 @@ impl PlyTable {
             .map(|i| self.columns[i].as_slice())
     }
 
-    /// Reads a PLY file's vertex element.
+    /// Reads a PLY file's vertex element (see [`parse`](Self::parse)).
     ///
     /// # Errors
-    /// [`PlyError`] naming the file and the problem.
+    /// [`PlyError`], one line naming the file and the problem.
     pub fn read(path: &Path) -> Result<Self, PlyError> {
         let p = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|source| PlyError::Io {
@@ -114,118 +265,49 @@ impl PlyTable {
         Self::parse(&bytes).map_err(|msg| PlyError::Malformed { path: p, msg })
     }
 
-    /// Parses PLY bytes (see [`read`](Self::read)).
+    /// Parses PLY bytes: the header, then every element of the body, keeping the `vertex`
+    /// element's columns (the checks are listed in the [module documentation](self)).
     ///
     /// # Errors
-    /// A message describing the problem.
+    /// A one-line message describing the problem and where it is.
     pub fn parse(bytes: &[u8]) -> Result<Self, String> {
-        let end = find_header_end(bytes).ok_or("no `end_header` line")?;
-        let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "header is not UTF-8")?;
-        let mut lines = header.lines();
-        if lines.next().map(str::trim) != Some("ply") {
-            return Err("missing the `ply` magic line".into());
-        }
-        let mut format = None;
-        let mut n_vertex = None;
-        let mut in_vertex = false;
-        let mut seen_vertex = false;
-        let mut props: Vec<(String, Scalar)> = Vec::new();
-        for line in lines {
-            let w: Vec<&str> = line.split_whitespace().collect();
-            match w.as_slice() {
-                ["format", f, _] => format = Some((*f).to_string()),
-                ["element", name, n] => {
-                    in_vertex = *name == "vertex";
-                    if in_vertex {
-                        n_vertex = Some(
-                            n.parse::<usize>()
-                                .map_err(|_| format!("bad vertex count `{n}`"))?,
-                        );
-                        seen_vertex = true;
-                    } else if !seen_vertex {
-                        return Err(format!("element `{name}` before `vertex` is not supported"));
-                    }
-                }
-                ["property", "list", ..] if in_vertex => {
-                    return Err("list properties in `vertex` are not supported".into());
-                }
-                ["property", ty, name] if in_vertex => {
-                    let s =
-                        Scalar::parse(ty).ok_or_else(|| format!("unknown property type `{ty}`"))?;
-                    props.push(((*name).to_string(), s));
-                }
-                _ => {}
-            }
-        }
-        let n = n_vertex.ok_or("no `element vertex`")?;
-        if props.is_empty() {
-            return Err("vertex element has no properties".into());
-        }
-        let body = &bytes[end..];
-        let mut columns = vec![Vec::with_capacity(n); props.len()];
-        match format.as_deref() {
-            Some("ascii") => {
-                let text = std::str::from_utf8(body).map_err(|_| "ASCII body is not UTF-8")?;
-                let mut tokens = text.split_ascii_whitespace();
-                for v in 0..n {
-                    for col in &mut columns {
-                        let t = tokens
-                            .next()
-                            .ok_or_else(|| format!("file ends at vertex {v} of {n}"))?;
-                        col.push(
-                            t.parse::<f64>()
-                                .map_err(|_| format!("vertex {v}: `{t}` is not a number"))?,
-                        );
-                    }
-                }
-            }
-            Some("binary_little_endian") => {
-                let stride: usize = props.iter().map(|(_, s)| s.size()).sum();
-                if body.len() < stride * n {
-                    return Err(format!(
-                        "binary body holds {} bytes, {n} vertices need {}",
-                        body.len(),
-                        stride * n
-                    ));
-                }
-                for rec in body.chunks_exact(stride).take(n) {
-                    let mut off = 0;
-                    for (col, (_, s)) in columns.iter_mut().zip(&props) {
-                        col.push(s.read_le(&rec[off..off + s.size()]));
-                        off += s.size();
-                    }
-                }
-            }
-            Some(f) => {
-                return Err(format!(
-                    "format `{f}` is not supported (ascii, binary_little_endian)"
-                ));
-            }
-            None => return Err("no `format` line".into()),
-        }
+        let h = parse_header(bytes)?;
+        let body = &bytes[h.body_start..];
+        let columns = match h.format {
+            Format::Ascii => read_ascii(&h, body)?,
+            Format::BinaryLittleEndian => read_binary(&h, body)?,
+        };
+        let vertex = &h.elements[h.vertex];
         Ok(Self {
-            names: props.into_iter().map(|(n, _)| n).collect(),
+            names: vertex.props.iter().map(|p| p.name().to_string()).collect(),
             columns,
-            len: n,
+            len: vertex.count,
         })
     }
 
     /// Writes the table as binary little-endian `float` properties.
     ///
     /// # Errors
-    /// I/O errors.
+    /// I/O errors; a property name that is empty, holds whitespace or repeats
+    /// ([`std::io::ErrorKind::InvalidInput`]: the file could not be read back).
     ///
     /// # Panics
     /// If a column's length differs from `len`.
     pub fn write_binary(&self, path: &Path) -> std::io::Result<()> {
+        for (i, n) in self.names.iter().enumerate() {
+            if n.is_empty() || n.contains(char::is_whitespace) || self.names[..i].contains(n) {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    format!("{}: bad PLY property name `{}`", path.display(), quote(n)),
+                ));
+            }
+        }
         let mut header = String::from("ply\nformat binary_little_endian 1.0\n");
         let _ = writeln!(header, "element vertex {}", self.len);
         for n in &self.names {
             let _ = writeln!(header, "property float {n}");
         }
         header.push_str("end_header\n");
-        let mut out = Vec::with_capacity(header.len() + 4 * self.len * self.names.len());
-        out.extend_from_slice(header.as_bytes());
         for c in &self.columns {
             assert_eq!(
                 c.len(),
@@ -233,6 +315,9 @@ impl PlyTable {
                 "column length differs from the table length"
             );
         }
+        let body = self.len.saturating_mul(4).saturating_mul(self.names.len());
+        let mut out = Vec::with_capacity(header.len().saturating_add(body));
+        out.extend_from_slice(header.as_bytes());
         for v in 0..self.len {
             for c in &self.columns {
                 #[allow(
@@ -250,12 +335,326 @@ impl PlyTable {
     }
 }
 
-fn find_header_end(bytes: &[u8]) -> Option<usize> {
-    let pat = b"end_header";
-    let i = bytes.windows(pat.len()).position(|w| w == pat)?;
-    // Skip to the end of that line (handles \n and \r\n).
-    let nl = bytes[i..].iter().position(|&b| b == b'\n')?;
-    Some(i + nl + 1)
+/// Reads the header up to and including its `end_header` line.
+fn parse_header(bytes: &[u8]) -> Result<Header, String> {
+    let mut pos = 0;
+    let mut line_no = 0usize;
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    loop {
+        let rest = &bytes[pos..];
+        let nl = rest
+            .iter()
+            .position(|&b| b == b'\n')
+            .ok_or("no `end_header` line")?;
+        let raw = &rest[..nl];
+        let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
+        pos += nl + 1;
+        line_no += 1;
+        let line =
+            std::str::from_utf8(raw).map_err(|_| format!("header line {line_no} is not UTF-8"))?;
+        let w: Vec<&str> = line.split_whitespace().collect();
+        if line_no == 1 {
+            if w != ["ply"] {
+                return Err("missing the `ply` magic line".into());
+            }
+            continue;
+        }
+        let at = |msg: String| format!("header line {line_no}: {msg}");
+        match w.as_slice() {
+            ["end_header"] => break,
+            [] | ["comment" | "obj_info", ..] => {}
+            ["format", f, version] => {
+                if format.is_some() {
+                    return Err(at("a second `format` line".into()));
+                }
+                if !matches!(*version, "1.0" | "1") {
+                    return Err(at(format!("version `{}` is not 1.0", quote(version))));
+                }
+                format = Some(match *f {
+                    "ascii" => Format::Ascii,
+                    "binary_little_endian" => Format::BinaryLittleEndian,
+                    _ => {
+                        return Err(at(format!(
+                            "format `{}` is not supported (ascii, binary_little_endian)",
+                            quote(f)
+                        )));
+                    }
+                });
+            }
+            ["element", name, n] => {
+                if elements.iter().any(|e| e.name == *name) {
+                    return Err(at(format!("a second element `{}`", quote(name))));
+                }
+                let count = n.parse::<usize>().map_err(|_| {
+                    at(format!(
+                        "bad count `{}` for element `{}`",
+                        quote(n),
+                        quote(name)
+                    ))
+                })?;
+                elements.push(Element {
+                    name: (*name).to_string(),
+                    count,
+                    props: Vec::new(),
+                });
+            }
+            ["property", "list", count, item, name] => {
+                let e = elements
+                    .last_mut()
+                    .ok_or_else(|| at("a property before any element".into()))?;
+                let ty = |t: &str| {
+                    Scalar::parse(t)
+                        .ok_or_else(|| at(format!("unknown property type `{}`", quote(t))))
+                };
+                let (count, item) = (ty(count)?, ty(item)?);
+                if !count.is_integer() {
+                    return Err(at("a list length must have an integer type".into()));
+                }
+                if e.name == "vertex" {
+                    return Err(at("list properties in `vertex` are not supported".into()));
+                }
+                e.props.push(Property::List {
+                    name: (*name).to_string(),
+                    count,
+                    item,
+                });
+            }
+            ["property", ty, name] => {
+                let e = elements
+                    .last_mut()
+                    .ok_or_else(|| at("a property before any element".into()))?;
+                let ty = Scalar::parse(ty)
+                    .ok_or_else(|| at(format!("unknown property type `{}`", quote(ty))))?;
+                if e.props.iter().any(|p| p.name() == *name) {
+                    return Err(at(format!(
+                        "a second property `{}` in element `{}`",
+                        quote(name),
+                        quote(&e.name)
+                    )));
+                }
+                e.props.push(Property::Scalar {
+                    name: (*name).to_string(),
+                    ty,
+                });
+            }
+            _ => return Err(at(format!("unrecognised line `{}`", quote(line)))),
+        }
+    }
+    let format = format.ok_or("no `format` line")?;
+    if let Some(e) = elements.iter().find(|e| e.props.is_empty()) {
+        return Err(format!("element `{}` has no properties", quote(&e.name)));
+    }
+    let vertex = elements
+        .iter()
+        .position(|e| e.name == "vertex")
+        .ok_or("no `element vertex`")?;
+    Ok(Header {
+        format,
+        elements,
+        vertex,
+        body_start: pos,
+    })
+}
+
+/// Checks a vertex value: finite, and within ±[`MAX_POSITION`] for a position.
+fn vertex_value(name: &str, row: usize, v: f64) -> Result<f64, String> {
+    if !v.is_finite() {
+        return Err(format!(
+            "vertex {row}, property `{}`: {v} is not finite",
+            quote(name)
+        ));
+    }
+    if POSITION_NAMES.contains(&name) && v.abs() > MAX_POSITION {
+        return Err(format!(
+            "vertex {row}, property `{}`: {v:e} is beyond ±{MAX_POSITION:e}, not a plausible \
+             position",
+            quote(name)
+        ));
+    }
+    Ok(v)
+}
+
+/// `n` empty columns, each with room for `len` values.
+fn empty_columns(n: usize, len: usize) -> Vec<Vec<f64>> {
+    (0..n).map(|_| Vec::with_capacity(len)).collect()
+}
+
+/// The next `n` bytes of `body` from `*pos`, advancing `*pos`.
+fn take<'a>(body: &'a [u8], pos: &mut usize, n: usize) -> Option<&'a [u8]> {
+    let end = pos.checked_add(n)?;
+    let b = body.get(*pos..end)?;
+    *pos = end;
+    Some(b)
+}
+
+/// Walks a binary little-endian body; returns the vertex columns.
+fn read_binary(h: &Header, body: &[u8]) -> Result<Vec<Vec<f64>>, String> {
+    let mut pos = 0;
+    let mut columns = Vec::new();
+    for (ei, e) in h.elements.iter().enumerate() {
+        let name = quote(&e.name);
+        let min = e.props.iter().map(Property::min_size).sum::<usize>();
+        let rem = body.len() - pos;
+        let need = e.count.checked_mul(min);
+        if need.is_none_or(|n| n > rem) {
+            return Err(format!(
+                "{} `{name}` records need {} bytes, the binary body has {rem} left",
+                e.count,
+                need.map_or_else(|| "more than usize::MAX".to_string(), |n| n.to_string())
+            ));
+        }
+        let end = |row: usize| format!("the binary body ends in `{name}` record {row}");
+        if ei == h.vertex {
+            // Sized above: `count · min ≤ body.len()`, so this allocation is bounded by the file.
+            columns = empty_columns(e.props.len(), e.count);
+            for row in 0..e.count {
+                for (col, p) in columns.iter_mut().zip(&e.props) {
+                    let Property::Scalar { name, ty } = p else {
+                        return Err("list properties in `vertex` are not supported".into());
+                    };
+                    let b = take(body, &mut pos, ty.size()).ok_or_else(|| end(row))?;
+                    col.push(vertex_value(name, row, ty.read_le(b))?);
+                }
+            }
+        } else if !e.has_lists() {
+            pos += need.unwrap_or(rem);
+        } else {
+            // Every record takes at least one byte (the properties are not empty and a list
+            // has a length), so this loop is bounded by the body's size.
+            for row in 0..e.count {
+                for p in &e.props {
+                    match p {
+                        Property::Scalar { ty, .. } => {
+                            take(body, &mut pos, ty.size()).ok_or_else(|| end(row))?;
+                        }
+                        Property::List {
+                            name: pn,
+                            count,
+                            item,
+                        } => {
+                            let b = take(body, &mut pos, count.size()).ok_or_else(|| end(row))?;
+                            let n = count.read_le(b);
+                            let bytes = list_len(n)
+                                .and_then(|n| n.checked_mul(item.size()))
+                                .ok_or_else(|| {
+                                    format!(
+                                        "`{name}` record {row}, list `{}`: bad length {n}",
+                                        quote(pn)
+                                    )
+                                })?;
+                            take(body, &mut pos, bytes).ok_or_else(|| end(row))?;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if pos != body.len() {
+        return Err(format!(
+            "{} trailing bytes after the last element",
+            body.len() - pos
+        ));
+    }
+    Ok(columns)
+}
+
+/// A list length read as `f64` from an integer type: a non-negative integer.
+fn list_len(n: f64) -> Option<usize> {
+    if n >= 0.0 && n <= f64::from(u32::MAX) {
+        #[allow(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "an integer in [0, u32::MAX], read from an integer property"
+        )]
+        Some(n as usize)
+    } else {
+        None
+    }
+}
+
+/// Walks an ASCII body: one non-blank line per record; returns the vertex columns.
+fn read_ascii(h: &Header, body: &[u8]) -> Result<Vec<Vec<f64>>, String> {
+    let text = std::str::from_utf8(body).map_err(|_| "ASCII body is not UTF-8")?;
+    let rows: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    let declared = h
+        .elements
+        .iter()
+        .try_fold(0usize, |acc, e| acc.checked_add(e.count));
+    match declared {
+        Some(d) if d == rows.len() => {}
+        Some(d) if d < rows.len() => {
+            return Err(format!(
+                "{} rows after the last element (the header declares {d})",
+                rows.len() - d
+            ));
+        }
+        _ => {
+            return Err(format!(
+                "the header declares {} rows, the body holds {}",
+                declared.map_or_else(|| "more than usize::MAX".to_string(), |d| d.to_string()),
+                rows.len()
+            ));
+        }
+    }
+    let mut rows = rows.into_iter();
+    let mut columns = Vec::new();
+    for (ei, e) in h.elements.iter().enumerate() {
+        let name = quote(&e.name);
+        if ei == h.vertex {
+            // Sized above: `count` is at most the number of lines of the body.
+            columns = empty_columns(e.props.len(), e.count);
+        }
+        for row in 0..e.count {
+            let line = rows.next().ok_or("fewer rows than declared")?;
+            let mut tokens = line.split_ascii_whitespace();
+            let at = |msg: String| format!("`{name}` row {row}: {msg}");
+            let mut value = |ty: Scalar, prop: &str| -> Result<f64, String> {
+                let t = tokens.next().ok_or_else(|| {
+                    at(format!("missing the value of property `{}`", quote(prop)))
+                })?;
+                ty.parse_ascii(t).ok_or_else(|| {
+                    at(format!(
+                        "`{}` is not a valid `{}` (property `{}`)",
+                        quote(t),
+                        ty.name(),
+                        quote(prop)
+                    ))
+                })
+            };
+            for (pi, p) in e.props.iter().enumerate() {
+                match p {
+                    Property::Scalar { name: pn, ty } => {
+                        let v = value(*ty, pn)?;
+                        if ei == h.vertex {
+                            columns[pi].push(vertex_value(pn, row, v)?);
+                        }
+                    }
+                    Property::List {
+                        name: pn,
+                        count,
+                        item,
+                    } => {
+                        let n = value(*count, pn)?;
+                        let n = list_len(n).ok_or_else(|| {
+                            at(format!("bad list length {n} (property `{}`)", quote(pn)))
+                        })?;
+                        for _ in 0..n {
+                            value(*item, pn)?;
+                        }
+                    }
+                }
+            }
+            let extra = tokens.count();
+            if extra > 0 {
+                return Err(at(format!(
+                    "{extra} values beyond the element's {} properties",
+                    e.props.len()
+                )));
+            }
+        }
+    }
+    Ok(columns)
 }
 
 #[cfg(test)]
@@ -295,12 +694,214 @@ mod tests {
     fn malformed_inputs_are_reported() {
         for (bytes, want) in [
             (&b"plx\nend_header\n"[..], "magic"),
-            (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1 2\n", "ends at vertex 2"),
+            (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1\n2\n", "declares 3 rows, the body holds 2"),
             (b"ply\nformat binary_big_endian 1.0\nelement vertex 1\nproperty float x\nend_header\n", "not supported"),
-            (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\nabc\n", "not a number"),
+            (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\nabc\n", "`abc` is not a valid `float`"),
         ] {
             let e = PlyTable::parse(bytes).expect_err("must fail");
             assert!(e.contains(want), "error `{e}` should mention `{want}`");
         }
+    }
+
+    /// A binary header for `n` vertices of one `float x` property, with `body` after it.
+    fn binary_x(n: &str, body: &[u8]) -> Vec<u8> {
+        let mut b = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\nend_header\n"
+        )
+        .into_bytes();
+        b.extend_from_slice(body);
+        b
+    }
+
+    fn expect_err(bytes: &[u8], want: &str) {
+        let e = PlyTable::parse(bytes).expect_err("must fail");
+        assert!(e.contains(want), "error `{e}` should mention `{want}`");
+        assert!(!e.contains('\n'), "error `{e}` must be one line");
+    }
+
+    #[test]
+    fn huge_vertex_count_fails_before_allocating() {
+        for n in ["4000000000", "18446744073709551615"] {
+            expect_err(&binary_x(n, &[0; 8]), "`vertex` records need");
+            let ascii = format!(
+                "ply\nformat ascii 1.0\nelement vertex {n}\nproperty float x\nend_header\n1\n"
+            );
+            expect_err(ascii.as_bytes(), "rows");
+        }
+    }
+
+    #[test]
+    fn trailing_bytes_after_binary_body_are_rejected() {
+        let ok = binary_x("1", &1.5f32.to_le_bytes());
+        assert_eq!(
+            PlyTable::parse(&ok).expect("exact body").column("x"),
+            Some(&[1.5][..]),
+            "one vertex"
+        );
+        let mut extra = ok;
+        extra.push(0);
+        expect_err(&extra, "trailing");
+    }
+
+    #[test]
+    fn ascii_rows_must_have_every_column_and_no_more() {
+        let head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nend_header\n";
+        expect_err(format!("{head}1 2 3\n4\n").as_bytes(), "row 0");
+        expect_err(format!("{head}1\n2 3\n").as_bytes(), "row 0");
+        expect_err(
+            format!("{head}1 2\n3 4\n5 6\n").as_bytes(),
+            "after the last element",
+        );
+    }
+
+    #[test]
+    fn non_finite_values_are_rejected_with_row_and_column() {
+        let head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float red\nend_header\n";
+        expect_err(
+            format!("{head}1 2\n3 nan\n").as_bytes(),
+            "vertex 1, property `red`",
+        );
+        expect_err(
+            format!("{head}inf 2\n3 4\n").as_bytes(),
+            "vertex 0, property `x`",
+        );
+        expect_err(&binary_x("1", &f32::NAN.to_le_bytes()), "not finite");
+    }
+
+    #[test]
+    fn absurd_positions_are_rejected_with_row_and_column() {
+        let head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float z\nend_header\n";
+        expect_err(
+            format!("{head}1 2\n3 -2e6\n").as_bytes(),
+            "vertex 1, property `z`",
+        );
+        assert!(
+            PlyTable::parse(format!("{head}1 2\n3 -1e6\n").as_bytes()).is_ok(),
+            "1e6 is still a position"
+        );
+    }
+
+    #[test]
+    fn read_names_the_file_in_one_line() {
+        let dir = std::env::temp_dir().join(format!("evogs-ply-err-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("tmp dir");
+        let path = dir.join("bad.ply");
+        std::fs::write(&path, binary_x("4000000000", &[])).expect("write");
+        let e = PlyTable::read(&path).expect_err("must fail").to_string();
+        assert!(
+            e.starts_with(&path.display().to_string()),
+            "`{e}` names the file"
+        );
+        assert!(!e.contains('\n'), "`{e}` is one line");
+        std::fs::remove_dir_all(dir).ok();
+    }
+
+    #[test]
+    fn other_elements_are_walked_and_checked() {
+        // A face element with lists after the vertices, and a scalar element before them.
+        let ascii = "ply\nformat ascii 1.0\ncomment made by hand\nelement camera 1\nproperty float f\n\
+                     element vertex 2\nproperty float x\nproperty uchar red\n\
+                     element face 2\nproperty list uchar int vertex_indices\nend_header\n\
+                     0.5\n1 2\n3 4\n3 0 1 1\n0\n";
+        let t = PlyTable::parse(ascii.as_bytes()).expect("valid");
+        assert_eq!(
+            t.column("x"),
+            Some(&[1.0, 3.0][..]),
+            "vertex column after a camera"
+        );
+        expect_err(
+            ascii.replace("\n3 0 1 1\n", "\n3 0 1\n").as_bytes(),
+            "`face` row 0",
+        );
+        expect_err(ascii.replace("\n0\n", "\n0 7\n").as_bytes(), "`face` row 1");
+        expect_err(
+            ascii.replace("1 2\n", "1 256\n").as_bytes(),
+            "`256` is not a valid `uchar`",
+        );
+        expect_err(
+            ascii.replace("3 0 1 1", "-1 0 1 1").as_bytes(),
+            "`face` row 0",
+        );
+
+        let mut bin =
+            b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty double x\n\
+                        element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                .to_vec();
+        bin.extend_from_slice(&2.5f64.to_le_bytes());
+        bin.push(2);
+        bin.extend_from_slice(&[0; 8]);
+        assert_eq!(
+            PlyTable::parse(&bin).expect("valid").column("x"),
+            Some(&[2.5][..]),
+            "vertex column before a face list"
+        );
+        let mut long = bin.clone();
+        long.push(0);
+        expect_err(&long, "1 trailing bytes");
+        bin.pop();
+        expect_err(&bin, "ends in `face` record 0");
+    }
+
+    #[test]
+    fn header_lines_are_checked() {
+        let body = "end_header\n1\n";
+        for (head, want) in [
+            (
+                "ply\nformat ascii 2.0\nelement vertex 1\nproperty float x\n",
+                "version",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float x\n",
+                "a second property `x`",
+            ),
+            (
+                "ply\nformat ascii 1.0\nproperty float x\nelement vertex 1\n",
+                "before any element",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty half x\n",
+                "unknown property type",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nbogus\n",
+                "unrecognised line",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty list float int x\n",
+                "integer type",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex -1\nproperty float x\n",
+                "bad count",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nelement e 0\n",
+                "no properties",
+            ),
+        ] {
+            expect_err(format!("{head}{body}").as_bytes(), want);
+        }
+        let crlf = "ply\r\nformat ascii 1.0\r\nelement vertex 1\r\nproperty float x\r\nend_header\r\n1\r\n";
+        assert!(PlyTable::parse(crlf.as_bytes()).is_ok(), "CRLF line ends");
+    }
+
+    #[test]
+    fn write_refuses_names_it_could_not_read_back() {
+        let dir = std::env::temp_dir().join(format!("evogs-ply-names-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("tmp dir");
+        for names in [
+            vec!["a b".to_string()],
+            vec![String::new()],
+            vec!["x".into(), "x".into()],
+        ] {
+            let t = PlyTable {
+                columns: vec![vec![1.0]; names.len()],
+                names,
+                len: 1,
+            };
+            let e = t.write_binary(&dir.join("t.ply")).expect_err("bad name");
+            assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput, "{e}");
+        }
+        std::fs::remove_dir_all(dir).ok();
     }
 }

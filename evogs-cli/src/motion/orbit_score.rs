@@ -82,7 +82,6 @@ pub(super) fn score(
             window: WindowLoss::new(opts, ctx.lambda),
         })
         .collect();
-    let chunk = bodies.len().div_ceil(workers);
     let mut total = vec![0.0; bodies.len() + 1];
     let mut count = 0usize;
     for v in ctx.views_to((range, horizon)) {
@@ -95,6 +94,7 @@ pub(super) fn score(
             #[cfg(feature = "rayon")]
             Par::Rayon => {
                 use rayon::prelude::*;
+                let chunk = bodies.len().div_ceil(workers);
                 bodies
                     .par_chunks(chunk)
                     .zip(ws.par_iter_mut())

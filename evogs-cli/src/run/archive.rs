@@ -137,7 +137,7 @@ impl Archive {
         std::fs::rename(&tmp, path).map_err(io)
     }
 
-    /// Reads an archive.
+    /// Reads an archive (see [`from_bytes`](Self::from_bytes)).
     ///
     /// # Errors
     /// I/O failures or a corrupt file.
@@ -147,10 +147,16 @@ impl Archive {
             path: p.clone(),
             source,
         })?;
-        let corrupt = |msg: &str| ArchiveError::Corrupt {
-            path: p.clone(),
-            msg: msg.to_string(),
-        };
+        Self::from_bytes(&bytes).map_err(|msg| ArchiveError::Corrupt { path: p, msg })
+    }
+
+    /// Parses an archive from its bytes. Every length the header declares is checked against
+    /// the bytes (with checked arithmetic) before the array is copied.
+    ///
+    /// # Errors
+    /// What is wrong with the bytes (the `msg` of [`ArchiveError::Corrupt`]).
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, String> {
+        let corrupt = |msg: &str| msg.to_string();
         if bytes.len() < 16 || &bytes[..8] != MAGIC {
             return Err(corrupt("bad magic"));
         }
@@ -159,8 +165,9 @@ impl Archive {
         ))
         .map_err(|_| corrupt("header length"))?;
         let header: Value = serde_json::from_slice(
-            bytes
-                .get(16..16 + hl)
+            16usize
+                .checked_add(hl)
+                .and_then(|end| bytes.get(16..end))
                 .ok_or_else(|| corrupt("truncated header"))?,
         )
         .map_err(|_| corrupt("header JSON"))?;
@@ -191,28 +198,26 @@ impl Archive {
                 .map_err(|_| corrupt("array length"))?;
             match a["kind"].as_str() {
                 Some("f32") => {
-                    let b = bytes
-                        .get(off..off + 4 * len)
-                        .ok_or_else(|| corrupt("truncated data"))?;
+                    let b =
+                        array_bytes(bytes, off, len, 4).ok_or_else(|| corrupt("truncated data"))?;
                     ar.put_f32(
                         name,
                         &b.chunks_exact(4)
                             .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
                             .collect::<Vec<_>>(),
                     );
-                    off += 4 * len;
+                    off += b.len();
                 }
                 Some("u64") => {
-                    let b = bytes
-                        .get(off..off + 8 * len)
-                        .ok_or_else(|| corrupt("truncated data"))?;
+                    let b =
+                        array_bytes(bytes, off, len, 8).ok_or_else(|| corrupt("truncated data"))?;
                     ar.put_u64(
                         name,
                         &b.chunks_exact(8)
                             .map(|c| u64::from_le_bytes(c.try_into().unwrap_or_default()))
                             .collect::<Vec<_>>(),
                     );
-                    off += 8 * len;
+                    off += b.len();
                 }
                 _ => return Err(corrupt("array kind")),
             }
@@ -222,6 +227,12 @@ impl Archive {
         }
         Ok(ar)
     }
+}
+
+/// The `len · size` bytes of `bytes` from `off`, if they are all there (no overflow).
+fn array_bytes(bytes: &[u8], off: usize, len: usize, size: usize) -> Option<&[u8]> {
+    let end = len.checked_mul(size).and_then(|n| off.checked_add(n))?;
+    bytes.get(off..end)
 }
 
 /// Calls `f` on every floating-point number of `v` (not integers), depth first, in the
@@ -309,6 +320,52 @@ mod tests {
         );
         assert_eq!(a, b, "the whole metadata");
         assert_eq!(b.meta["n"].as_u64(), Some(3), "integers stay integers");
+        std::fs::remove_dir_all(dir).ok();
+    }
+
+    /// An archive's bytes with this JSON header and data.
+    fn raw(header_len: u64, header: &str, data: &[u8]) -> Vec<u8> {
+        let mut b = MAGIC.to_vec();
+        b.extend_from_slice(&header_len.to_le_bytes());
+        b.extend_from_slice(header.as_bytes());
+        b.extend_from_slice(data);
+        b
+    }
+
+    /// Lengths near `usize::MAX` are reported as corrupt, not overflowed into a panic.
+    #[test]
+    fn huge_declared_lengths_are_corrupt() {
+        let e = Archive::from_bytes(&raw(u64::MAX - 8, "{}", &[])).expect_err("header length");
+        assert_eq!(e, "truncated header", "huge header length");
+        for (kind, len) in [
+            ("f32", u64::MAX / 4 + 1),
+            ("u64", u64::MAX / 8 + 1),
+            ("f32", u64::MAX),
+        ] {
+            let h = format!(
+                r#"{{"meta": null, "arrays": [{{"name": "a", "kind": "{kind}", "len": {len}}}]}}"#
+            );
+            let e =
+                Archive::from_bytes(&raw(h.len() as u64, &h, &[0; 16])).expect_err("array length");
+            assert_eq!(e, "truncated data", "{kind} array of {len}");
+        }
+    }
+
+    #[test]
+    fn from_bytes_reads_what_write_wrote() {
+        let dir = std::env::temp_dir().join(format!("evogs-ar-bytes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("tmp");
+        let p = dir.join("c.bin");
+        let mut a = Archive::new(json!({"t": 0.1}));
+        a.put_f32("x", &[1.0, f32::NAN.copysign(-1.0)]);
+        a.put_u64("n", &[3]);
+        a.write(&p).expect("write");
+        let bytes = std::fs::read(&p).expect("bytes");
+        let b = Archive::from_bytes(&bytes).expect("parse");
+        assert_eq!(b.u64("n"), Some(&[3][..]), "u64 array");
+        assert_eq!(b.first_non_finite(), Some(("x", 1)), "the NaN comes back");
+        let e = Archive::read(&dir.join("none.bin")).expect_err("missing file");
+        assert!(matches!(e, ArchiveError::Io { .. }), "{e}");
         std::fs::remove_dir_all(dir).ok();
     }
 }
