@@ -17,8 +17,8 @@
 //! `TIMES`: comma-separated target times (default 0.06,0.12,0.18,0.25); the training view
 //! nearest to each is used.
 
+use evogs_cli::app::load::load_dataset;
 use evogs_cli::app::paths::RunFolder;
-use evogs_cli::app::train::load_dataset;
 use evogs_cli::run::checkpoint;
 use evogs_cli::train::step::render_options;
 use evogs_cli::train::views::training_views;

@@ -21,7 +21,7 @@
 //!     --cams 3 --frames 10
 //! ```
 
-use evogs_cli::app::train::load_dataset;
+use evogs_cli::app::load::load_dataset;
 use evogs_cli::config::TrainConfig;
 use evogs_cli::data::image_io::save_png;
 use evogs_cli::data::n3dv::{LlffPose, write_poses};

@@ -12,6 +12,7 @@
 //! | [`motion`] | the spin search: bodies in the learnt motion, a global scan of their spin rates |
 //! | [`train`] | one step's loss and exact gradient, Adam with the EvoGS schedules, densification, the training loop |
 //! | [`run`] | checkpoints (bit-for-bit resumable) |
+//! | [`atomic`] | every output file written under a temporary name and renamed when complete |
 //! | [`eval`] | PSNR and SSIM on held-out views |
 //! | [`app`] | the commands: train, eval, render, inject, export |
 //! | [`verify`], [`check`] | recomputation of reference vectors, gradient and order reports |
@@ -29,6 +30,7 @@
 //! ```
 
 pub mod app;
+pub mod atomic;
 pub mod check;
 pub mod config;
 pub mod data;

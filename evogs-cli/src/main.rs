@@ -429,7 +429,7 @@ fn main() -> Result<()> {
                 None,
                 &mut term,
             )?;
-            println!("{} frames written", o.frames.len());
+            println!("{} frames written to {}", o.count, o.dir.display());
             if let Some(g) = o.gif {
                 println!("gif: {}", g.display());
             }
@@ -452,8 +452,11 @@ fn main() -> Result<()> {
                 data: frames.data,
                 format: frames.format,
             };
-            let frames = inject(&args, &mut term)?;
-            println!("{} frames written to {}", frames.len(), args.out.display());
+            let o = inject(&args, &mut term)?;
+            println!("{} frames written to {}", o.count, o.dir.display());
+            if let Some(g) = o.gif {
+                println!("gif: {}", g.display());
+            }
         }
         Cmd::Export { run, time, out } => {
             let n = export(&run, time, &out)?;

@@ -8,46 +8,14 @@ use evogs_cli::app::evaluate::{evaluate_run, parse_range};
 use evogs_cli::app::export::export;
 use evogs_cli::app::paths::shipped_scene;
 use evogs_cli::app::render::{CameraPath, RenderArgs, render_sequence};
-use evogs_cli::app::train::{TrainArgs, train};
 use evogs_cli::data::SplitName;
 
-const TINY: &str = r"
-[data]
-downscale = 8
-
-[field]
-width = 8
-
-[field.hexplane]
-channels = 2
-resolution = [4, 4, 4, 4]
-multires = [1]
-
-[schedule]
-warmup_iters = 3
-iterations = 6
-curriculum_iters = 0
-";
+mod common;
 
 #[test]
 fn export_and_render_refuse_times_out_of_reach() {
-    let dir = std::env::temp_dir().join(format!("evogs-bad-times-{}", std::process::id()));
-    std::fs::remove_dir_all(&dir).ok();
-    std::fs::create_dir_all(&dir).expect("tmp");
-    let cfg = dir.join("tiny.toml");
-    std::fs::write(&cfg, TINY).expect("config");
-    let run = dir.join("run");
-    train(
-        &TrainArgs {
-            data: Some(shipped_scene()),
-            out: run.clone(),
-            config: Some(cfg),
-            skip_outputs: true,
-            ..TrainArgs::default()
-        },
-        &mut Silent,
-    )
-    .expect("a tiny run");
+    let dir = common::scratch("bad-times");
+    let run = common::tiny_run(&dir);
     for t in [
         f64::NAN,
         f64::INFINITY,
@@ -89,7 +57,7 @@ fn export_and_render_refuse_times_out_of_reach() {
         "no output folder for refused times"
     );
     assert_eq!(
-        render((-0.25, 1.25, 2)).expect("within reach").frames.len(),
+        render((-0.25, 1.25, 2)).expect("within reach").count,
         2,
         "frames"
     );

@@ -11,18 +11,9 @@ use std::io::{BufRead as _, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-const TINY: &str = r"
-[data]
-downscale = 8
+mod common;
 
-[field]
-width = 8
-
-[field.hexplane]
-channels = 2
-resolution = [4, 4, 4, 4]
-multires = [1]
-
+const SCHEDULE: &str = r"
 [schedule]
 warmup_iters = 20
 iterations = 160
@@ -54,8 +45,7 @@ impl Work {
         let dir = std::env::temp_dir().join(format!("evogs-int-{name}-{}", std::process::id()));
         std::fs::remove_dir_all(&dir).ok();
         std::fs::create_dir_all(&dir).expect("tmp");
-        let cfg = dir.join("tiny.toml");
-        std::fs::write(&cfg, TINY).expect("config");
+        let cfg = common::tiny_config(&dir, SCHEDULE);
         Self { dir, cfg }
     }
 

@@ -7,10 +7,11 @@
 use evogs_cli::app::Silent;
 use evogs_cli::app::evaluate::evaluate_run;
 use evogs_cli::app::export::export;
+use evogs_cli::app::load::load_options;
 use evogs_cli::app::paths::shipped_multiview_scene;
 use evogs_cli::app::render::{CameraPath, RenderArgs, render_sequence};
 use evogs_cli::app::study::StudyProtocol;
-use evogs_cli::app::train::{TrainArgs, load_options, train};
+use evogs_cli::app::train::{TrainArgs, train};
 use evogs_cli::config::{Protocol, TrainConfig};
 use evogs_cli::data::image_io::save_png;
 use evogs_cli::data::n3dv::{LlffPose, write_poses};
@@ -517,8 +518,8 @@ fn train_eval_render_and_export_work_on_a_rig() {
             &mut Silent,
         )
         .expect("render");
-        assert_eq!(r.frames.len(), n, "{camera:?}");
-        let (w, h) = image::image_dimensions(&r.frames[0]).expect("png");
+        assert_eq!(r.count, n, "{camera:?}");
+        let (w, h) = image::image_dimensions(r.frame(0)).expect("png");
         assert_eq!((w, h), (120, 90), "{camera:?}: the rig's image size");
     }
     let e = render_sequence(

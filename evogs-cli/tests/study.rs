@@ -3,9 +3,10 @@
 //! uninterrupted one), and bad input refused before any training.
 
 use evogs_cli::app::Silent;
+use evogs_cli::app::load::load_dataset;
 use evogs_cli::app::paths::shipped_scene;
 use evogs_cli::app::study::{StudyArgs, StudyProtocol, StudySummary, run_study};
-use evogs_cli::app::train::{TrainArgs, load_dataset, resolve_config};
+use evogs_cli::app::train::{TrainArgs, resolve_config};
 use evogs_cli::model::Motion;
 use evogs_cli::run::checkpoint;
 use evogs_cli::train::trainer::Trainer;

@@ -2,8 +2,8 @@
 //! in `RUN/config.toml` and its trainer resumed from the checkpoint, with every training view
 //! of its dataset.
 
+use evogs_cli::app::load::load_dataset;
 use evogs_cli::app::paths::RunFolder;
-use evogs_cli::app::train::load_dataset;
 use evogs_cli::config::TrainConfig;
 use evogs_cli::run::checkpoint;
 use evogs_cli::train::trainer::Trainer;

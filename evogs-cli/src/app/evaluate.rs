@@ -1,8 +1,9 @@
 //! `evogs eval`: metrics of a trained run on a split, written to `RUN/metrics-<split>.json`.
 
 use super::Reporter;
+use super::error::CommandError;
+use super::load::load_dataset;
 use super::paths::RunFolder;
-use super::train::{CommandError, load_dataset};
 use crate::data::{DataFormat, SplitName};
 use crate::eval::{SplitMetrics, evaluate};
 use crate::run::checkpoint;
@@ -100,7 +101,8 @@ pub fn evaluate_run(
         None => split.as_str().to_string(),
     };
     let path = folder.metrics(&name);
-    std::fs::write(&path, serde_json::to_string_pretty(&m).unwrap_or_default())
+    let json = serde_json::to_string_pretty(&m).unwrap_or_default();
+    crate::atomic::write_atomic(&path, json.as_bytes())
         .map_err(|e| CommandError(format!("{}: {e}", path.display())))?;
     Ok((m, path))
 }

@@ -3,8 +3,8 @@
 //! little-endian floats; `f_rest` channel-major (all R, then G, then B); opacity as a logit,
 //! scales as logs, rotations as raw (w, x, y, z).
 
+use super::error::CommandError;
 use super::paths::RunFolder;
-use super::train::CommandError;
 use crate::data::ply::PlyTable;
 use crate::run::checkpoint;
 use evogs_splat::Splats;

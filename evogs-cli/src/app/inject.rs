@@ -10,10 +10,12 @@
 //! orientations, so the Gaussians turn exactly with the rotation.
 
 use super::Reporter;
+use super::error::CommandError;
+use super::frame_writer::{FrameWriter, FramesWritten};
+use super::load::load_dataset;
 use super::paths::RunFolder;
-use super::render::{CameraPath, path_cameras};
-use super::train::{CommandError, load_dataset};
-use crate::data::{DataFormat, image_io};
+use super::render::{CameraPath, frame_time, path_cameras};
+use crate::data::DataFormat;
 use crate::field::neural::gaussian_layout;
 use crate::model::Motion;
 use crate::run::checkpoint;
@@ -169,7 +171,7 @@ pub struct InjectArgs {
 ///
 /// # Errors
 /// A run without velocity motion, unreadable run or data, unwritable output.
-pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<Vec<PathBuf>, CommandError> {
+pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten, CommandError> {
     let run = RunFolder::new(&args.run);
     let l = checkpoint::load_model(&run.checkpoint()).map_err(CommandError::from_display)?;
     let mut model = l.model;
@@ -203,24 +205,17 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<Vec<PathBuf>,
             .map_err(|e| CommandError(format!("--times: {e}")))?;
     }
     let cams = path_cameras(&args.camera, &ds, &model, count)?;
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| CommandError(format!("{}: cannot create: {e}", args.out.display())))?;
+    let mut out = FrameWriter::create(&args.out, args.gif.then_some("inject.gif"))?;
     model.field.set_count(n);
     model.field.set_par(Par::best());
     let mut stepper = Stepper::new(model.method, gaussian_layout(n));
     let opts = render_options([1.0, 1.0, 1.0], model.canonical.sh_degree, Par::best());
     let mut splats = Splats::default();
     let mut rasterizer = TiledRasterizer::new();
-    let mut images = Vec::with_capacity(count);
-    let mut frames = Vec::with_capacity(count);
     rep.start("inject", count as u64);
-    for (i, cam) in cams.iter().enumerate() {
-        #[allow(clippy::cast_precision_loss, reason = "frame counts are small")]
-        let t = if count == 1 {
-            a
-        } else {
-            a + (b - a) * i as f64 / (count - 1) as f64
-        };
+    for i in 0..count {
+        out.check_interrupt(count)?;
+        let t = frame_time(args.times, i);
         let k = model.anchor_for(t);
         let mut y = model.initial_state(k);
         let grid = model.grid_to(k, t);
@@ -235,24 +230,17 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<Vec<PathBuf>,
         let mut mixed = Mix::new(args.mask.clone(), injected, &mut model.field, frame);
         integrate(&mut mixed, &mut stepper, &grid, &mut y);
         model.splats_from_state(&y, &mut splats);
-        let mut img = render_tiled(&splats, cam, &opts, &mut rasterizer)
+        let mut img = render_tiled(&splats, &cams.get(i)?, &opts, &mut rasterizer)
             .raster
             .rgb;
         for v in img.data_mut() {
             *v = v.clamp(0.0, 1.0);
         }
-        let p = args.out.join(format!("frame_{i:04}.png"));
-        image_io::save_png(&img, &p).map_err(CommandError::from_display)?;
-        frames.push(p);
-        images.push(img);
+        out.push(&img)?;
         rep.progress(i as u64 + 1, &format!("t = {t:.3}"));
     }
     rep.finish();
-    if args.gif {
-        image_io::save_gif(&images, 80, &args.out.join("inject.gif"))
-            .map_err(CommandError::from_display)?;
-    }
-    Ok(frames)
+    out.finish()
 }
 
 #[cfg(test)]

@@ -2,10 +2,13 @@
 //! arguments): training, evaluation, rendering, export, studies. Output goes through a [`Reporter`];
 //! the library never prints.
 
+pub mod error;
 pub mod evaluate;
 pub mod export;
+pub mod frame_writer;
 pub mod inject;
 pub mod interrupt;
+pub mod load;
 pub mod paths;
 pub mod plot;
 pub mod render;

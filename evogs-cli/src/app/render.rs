@@ -3,9 +3,11 @@
 //! optional GIF.
 
 use super::Reporter;
+use super::error::CommandError;
+use super::frame_writer::{FrameWriter, FramesWritten};
+use super::load::load_dataset;
 use super::paths::RunFolder;
-use super::train::{CommandError, load_dataset};
-use crate::data::{DataFormat, Dataset, image_io};
+use crate::data::{DataFormat, Dataset};
 use crate::eval::render_frame;
 use crate::model::Model;
 use crate::run::checkpoint;
@@ -66,15 +68,6 @@ pub struct RenderArgs {
     pub format: Option<DataFormat>,
 }
 
-/// What was written.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct RenderOutcome {
-    /// The PNG frames.
-    pub frames: Vec<PathBuf>,
-    /// The GIF.
-    pub gif: Option<PathBuf>,
-}
-
 /// Parses `A:B:N` (N ≥ 1).
 ///
 /// # Errors
@@ -109,61 +102,120 @@ pub fn world_up(ds: &Dataset) -> Vec3<f64> {
     if n > 1e-6 { sum * (1.0 / n) } else { z }
 }
 
-/// Orbit cameras: `n` poses around the centre of the scene about the world's up direction
-/// ([`world_up`]), at the training cameras' mean distance and height, with their field of
-/// view and image size.
-///
-/// # Errors
-/// No training views, or a degenerate pose.
-pub fn orbit_cameras(
-    ds: &Dataset,
+/// One turn around the scene in `n` poses about the world's up direction ([`world_up`]), at
+/// the training cameras' mean distance and height, with their field of view and image
+/// size. Each pose is computed when asked for, so a sequence of any length costs nothing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
     center: Vec3<f64>,
+    up: Vec3<f64>,
+    e1: Vec3<f64>,
+    e2: Vec3<f64>,
+    ring: f64,
+    height: f64,
+    fov_x: f64,
+    width: usize,
+    height_px: usize,
     n: usize,
-) -> Result<Vec<PinholeCamera<f32>>, String> {
-    let up = world_up(ds);
-    // A basis of the orbit's plane: x and y for the z-up D-NeRF world, else any
-    // orthonormal pair perpendicular to up.
-    let (e1, e2) = if up == Vec3::new(0.0, 0.0, 1.0) {
-        (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0))
-    } else {
-        let seed = if up.x.abs() < 0.9 {
-            Vec3::new(1.0, 0.0, 0.0)
+}
+
+impl Orbit {
+    /// The orbit of `n` poses around `center`.
+    ///
+    /// # Errors
+    /// No training views, or a degenerate training camera.
+    pub fn new(ds: &Dataset, center: Vec3<f64>, n: usize) -> Result<Self, String> {
+        let up = world_up(ds);
+        // A basis of the orbit's plane: x and y for the z-up D-NeRF world, else any
+        // orthonormal pair perpendicular to up.
+        let (e1, e2) = if up == Vec3::new(0.0, 0.0, 1.0) {
+            (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0))
         } else {
-            Vec3::new(0.0, 1.0, 0.0)
+            let seed = if up.x.abs() < 0.9 {
+                Vec3::new(1.0, 0.0, 0.0)
+            } else {
+                Vec3::new(0.0, 1.0, 0.0)
+            };
+            let e1 = seed - up * seed.dot(up);
+            let e1 = e1 * (1.0 / e1.norm());
+            (e1, up.cross(e1))
         };
-        let e1 = seed - up * seed.dot(up);
-        let e1 = e1 * (1.0 / e1.norm());
-        (e1, up.cross(e1))
-    };
-    let v0 = ds
-        .train
-        .first()
-        .ok_or("no training views to place the orbit")?;
-    let cams: Vec<PinholeCamera<f64>> =
-        ds.train.iter().map(view_camera).collect::<Result<_, _>>()?;
-    #[allow(clippy::cast_precision_loss, reason = "view counts are small")]
-    let m = cams.len() as f64;
-    let radius = cams
-        .iter()
-        .map(|c| (c.center() - center).norm())
-        .sum::<f64>()
-        / m;
-    let height = cams
-        .iter()
-        .map(|c| (c.center() - center).dot(up))
-        .sum::<f64>()
-        / m;
-    let ring = (radius * radius - height * height).max(1e-6).sqrt();
-    (0..n)
-        .map(|i| {
-            #[allow(clippy::cast_precision_loss, reason = "frame counts are small")]
-            let a = std::f64::consts::TAU * i as f64 / n as f64;
-            let eye = center + (e1 * (ring * a.cos()) + e2 * (ring * a.sin()) + up * height);
-            PinholeCamera::look_at(eye, center, up, v0.fov_x, v0.width, v0.height)
-                .map(|c: PinholeCamera<f64>| c.cast())
-                .map_err(|e| format!("orbit camera {i}: {e}"))
+        let v0 = ds
+            .train
+            .first()
+            .ok_or("no training views to place the orbit")?;
+        let cams: Vec<PinholeCamera<f64>> =
+            ds.train.iter().map(view_camera).collect::<Result<_, _>>()?;
+        #[allow(clippy::cast_precision_loss, reason = "view counts are small")]
+        let m = cams.len() as f64;
+        let radius = cams
+            .iter()
+            .map(|c| (c.center() - center).norm())
+            .sum::<f64>()
+            / m;
+        let height = cams
+            .iter()
+            .map(|c| (c.center() - center).dot(up))
+            .sum::<f64>()
+            / m;
+        Ok(Self {
+            center,
+            up,
+            e1,
+            e2,
+            ring: (radius * radius - height * height).max(1e-6).sqrt(),
+            height,
+            fov_x: v0.fov_x,
+            width: v0.width,
+            height_px: v0.height,
+            n: n.max(1),
         })
-        .collect()
+    }
+
+    /// Pose `i` (of `n`, at angle 2π i / n).
+    ///
+    /// # Errors
+    /// A degenerate pose.
+    pub fn camera(&self, i: usize) -> Result<PinholeCamera<f32>, String> {
+        #[allow(clippy::cast_precision_loss, reason = "an angle")]
+        let a = std::f64::consts::TAU * (i % self.n) as f64 / self.n as f64;
+        let eye = self.center
+            + (self.e1 * (self.ring * a.cos())
+                + self.e2 * (self.ring * a.sin())
+                + self.up * self.height);
+        PinholeCamera::look_at(
+            eye,
+            self.center,
+            self.up,
+            self.fov_x,
+            self.width,
+            self.height_px,
+        )
+        .map(|c: PinholeCamera<f64>| c.cast())
+        .map_err(|e| format!("orbit camera {i}: {e}"))
+    }
+}
+
+/// The cameras of a frame sequence: computed per frame along an orbit, or a list cycled.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FrameCameras {
+    /// Frame `i` from orbit pose `i`.
+    Orbit(Orbit),
+    /// Frame `i` from camera `i mod len` (never empty).
+    Cycle(Vec<PinholeCamera<f32>>),
+}
+
+impl FrameCameras {
+    /// The camera of frame `i`.
+    ///
+    /// # Errors
+    /// A degenerate orbit pose.
+    pub fn get(&self, i: usize) -> Result<PinholeCamera<f32>, CommandError> {
+        match self {
+            Self::Orbit(o) => o.camera(i).map_err(CommandError),
+            Self::Cycle(c) => Ok(c[i % c.len()]),
+        }
+    }
 }
 
 /// The point the orbit turns around: the Gaussians' mean position, on the ground (z = 0) of
@@ -217,8 +269,8 @@ fn rig_cameras(ds: &Dataset, name: Option<&str>) -> Result<Vec<PinholeCamera<f32
 }
 
 /// The cameras of `count` frames along `path`: an orbit around the model's centre
-/// ([`orbit_center`], [`orbit_cameras`]), the test cameras cycled, a rig's cameras cycled, or
-/// one rig camera.
+/// ([`orbit_center`], [`Orbit`]), the test cameras cycled, a rig's cameras cycled, or one rig
+/// camera.
 ///
 /// # Errors
 /// No training views to place the orbit, no test cameras, no rig or rig camera of that
@@ -228,18 +280,19 @@ pub fn path_cameras(
     ds: &Dataset,
     model: &Model<f32>,
     count: usize,
-) -> Result<Vec<PinholeCamera<f32>>, CommandError> {
+) -> Result<FrameCameras, CommandError> {
     match path {
-        CameraPath::Orbit => {
-            orbit_cameras(ds, orbit_center(model, ds), count).map_err(CommandError)
-        }
+        CameraPath::Orbit => Orbit::new(ds, orbit_center(model, ds), count)
+            .map(FrameCameras::Orbit)
+            .map_err(CommandError),
         CameraPath::Rig | CameraPath::Camera(_) => {
             let name = match path {
                 CameraPath::Camera(n) => Some(n.as_str()),
                 _ => None,
             };
-            let rig = rig_cameras(ds, name).map_err(CommandError)?;
-            Ok((0..count).map(|i| rig[i % rig.len()]).collect())
+            rig_cameras(ds, name)
+                .map(FrameCameras::Cycle)
+                .map_err(CommandError)
         }
         CameraPath::Test => {
             let t: Vec<PinholeCamera<f32>> = ds
@@ -253,12 +306,26 @@ pub fn path_cameras(
                     "the dataset has no test cameras (use --camera orbit)".into(),
                 ));
             }
-            Ok((0..count).map(|i| t[i % t.len()]).collect())
+            Ok(FrameCameras::Cycle(t))
         }
     }
 }
 
-/// Renders the frames (using an already loaded model and dataset when given).
+/// The time of frame `i` of `n` evenly spaced over `[a, b]` (`a` when `n = 1`).
+#[must_use]
+pub fn frame_time((a, b, n): (f64, f64, usize), i: usize) -> f64 {
+    if n <= 1 {
+        a
+    } else {
+        #[allow(clippy::cast_precision_loss, reason = "frame indices")]
+        let u = i as f64 / (n - 1) as f64;
+        a + (b - a) * u
+    }
+}
+
+/// Renders the frames one at a time, writing each as it comes (constant memory for any
+/// count; an interrupt stops after the current frame) and using an already loaded model and
+/// dataset when given.
 ///
 /// # Errors
 /// Unreadable run or data, unwritable output.
@@ -266,7 +333,7 @@ pub fn render_sequence(
     args: &RenderArgs,
     loaded: Option<(&mut Model<f32>, &Dataset)>,
     rep: &mut dyn Reporter,
-) -> Result<RenderOutcome, CommandError> {
+) -> Result<FramesWritten, CommandError> {
     let mut own;
     let (model, ds): (&mut Model<f32>, &Dataset) = match loaded {
         Some(x) => x,
@@ -295,31 +362,23 @@ pub fn render_sequence(
             .map_err(|e| CommandError(format!("--times: {e}")))?;
     }
     let cams = path_cameras(&args.camera, ds, model, n)?;
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| CommandError(format!("{}: cannot create: {e}", args.out.display())))?;
+    let mut out = FrameWriter::create(&args.out, args.gif.then_some("render.gif"))?;
     rep.start("render", n as u64);
-    let mut out = RenderOutcome::default();
-    let mut frames = Vec::with_capacity(n);
     let mut scratch = Splats::default();
-    for (i, cam) in cams.iter().enumerate() {
-        #[allow(clippy::cast_precision_loss, reason = "frame counts are small")]
-        let t = if n == 1 {
-            a
-        } else {
-            a + (b - a) * i as f64 / (n - 1) as f64
-        };
-        let img = render_frame(model, cam, t, background, Par::best(), &mut scratch);
-        let p = args.out.join(format!("frame_{i:04}.png"));
-        image_io::save_png(&img, &p).map_err(CommandError::from_display)?;
-        out.frames.push(p);
-        frames.push(img);
+    for i in 0..n {
+        out.check_interrupt(n)?;
+        let t = frame_time(args.times, i);
+        let img = render_frame(
+            model,
+            &cams.get(i)?,
+            t,
+            background,
+            Par::best(),
+            &mut scratch,
+        );
+        out.push(&img)?;
         rep.progress(i as u64 + 1, &format!("t = {t:.3}"));
     }
     rep.finish();
-    if args.gif {
-        let p = args.out.join("render.gif");
-        image_io::save_gif(&frames, 80, &p).map_err(CommandError::from_display)?;
-        out.gif = Some(p);
-    }
-    Ok(out)
+    out.finish()
 }

@@ -1,11 +1,13 @@
 //! `evogs train`: resolve the configuration, load the data, train with checkpoints and a
 //! log, then evaluate on the test split and render a GIF.
 
+use super::error::CommandError;
+use super::load::load_dataset;
 use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
 use super::{Reporter, interrupt, plot};
 use crate::config::{Protocol, ScheduleConfig, TrainConfig};
-use crate::data::{DataFormat, Dataset, LoadOptions, SplitName};
+use crate::data::{DataFormat, Dataset, SplitName};
 use crate::eval::{SplitMetrics, evaluate};
 use crate::model::Motion;
 use crate::run::checkpoint;
@@ -13,18 +15,6 @@ use crate::train::trainer::{LogRow, Trainer};
 use crate::train::views::{supervised_indices, training_frames};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-
-/// Why a command failed: one line naming the file or setting at fault.
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct CommandError(pub String);
-
-impl CommandError {
-    /// An error from anything printable.
-    pub fn from_display(e: impl std::fmt::Display) -> Self {
-        Self(e.to_string())
-    }
-}
 
 /// The arguments of `evogs train`.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -120,38 +110,6 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig, CommandError> {
     Ok(cfg)
 }
 
-/// The dataset options of a run's data configuration (layout, background, downscale,
-/// held-out cameras, times file).
-#[must_use]
-pub fn load_options(cfg: &TrainConfig, images: bool) -> LoadOptions {
-    LoadOptions {
-        background: cfg.data.background,
-        downscale: cfg.data.downscale,
-        load_images: images,
-        format: cfg.data.format,
-        test_cameras: cfg.data.test_cameras.clone(),
-        val_cameras: cfg.data.val_cameras.clone(),
-        times_file: cfg.data.times_file.clone(),
-        ..LoadOptions::default()
-    }
-}
-
-/// Loads a dataset with the run's data settings ([`load_options`]). Every frame's file and
-/// size is checked. With `images`, the images are decoded now if all of them fit the frame
-/// budget (`data.cache_mb`); otherwise (and without `images`) they stay on disk and are
-/// decoded when used ([`crate::data::View::image_or_decode`], the training frame cache).
-///
-/// # Errors
-/// Any data problem, naming the file.
-pub fn load_dataset(dir: &Path, cfg: &TrainConfig, images: bool) -> Result<Dataset, CommandError> {
-    let mut ds =
-        Dataset::load(dir, &load_options(cfg, false)).map_err(CommandError::from_display)?;
-    if images && ds.decoded_bytes() <= cfg.data.cache_bytes() {
-        ds.decode_images().map_err(CommandError::from_display)?;
-    }
-    Ok(ds)
-}
-
 /// How the dataset's frames are held: decoded in memory, or read through the frame cache.
 fn frames_note(ds: &Dataset, cfg: &TrainConfig) -> String {
     #[allow(clippy::cast_precision_loss, reason = "sizes for display")]
@@ -186,7 +144,7 @@ fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
             r.lr_position
         );
     }
-    std::fs::write(path, s)
+    crate::atomic::write_atomic(path, s.as_bytes())
         .map_err(|e| CommandError(format!("{}: cannot write the log: {e}", path.display())))
 }
 
@@ -302,10 +260,10 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             run.dir.display()
         ))
     })?;
-    std::fs::write(run.config(), cfg.to_toml())
+    crate::atomic::write_atomic(&run.config(), cfg.to_toml().as_bytes())
         .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?;
     let abs = std::fs::canonicalize(&data_dir).unwrap_or(data_dir.clone());
-    std::fs::write(run.data_ref(), abs.display().to_string())
+    crate::atomic::write_atomic(&run.data_ref(), abs.display().to_string().as_bytes())
         .map_err(|e| CommandError(format!("{}: {e}", run.data_ref().display())))?;
     let mut t = if resuming {
         let t = checkpoint::resume(&run.checkpoint(), views).map_err(CommandError::from_display)?;
@@ -405,7 +363,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         m.iterations = t.iteration;
         m.train_seconds = t.train_seconds;
         let json = serde_json::to_string_pretty(&m).unwrap_or_default();
-        std::fs::write(run.metrics("test"), json)
+        crate::atomic::write_atomic(&run.metrics("test"), json.as_bytes())
             .map_err(|e| CommandError(format!("{}: {e}", run.metrics("test").display())))?;
         outcome.test = Some(m);
     }

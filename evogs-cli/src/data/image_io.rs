@@ -1,5 +1,7 @@
-//! PNG input and output, alpha compositing, box downscaling and GIF writing.
+//! PNG input and output (written atomically, [`crate::atomic`]), alpha compositing and box
+//! downscaling.
 
+use crate::atomic::AtomicFile;
 use evogs_splat::Image;
 use image::{ColorType, ImageReader};
 use std::path::Path;
@@ -161,7 +163,7 @@ pub fn to_rgb8(img: &Image<f32>) -> Vec<u8> {
         .collect()
 }
 
-/// Writes an 8-bit RGB PNG (values clamped to [0, 1]).
+/// Writes an 8-bit RGB PNG (values clamped to [0, 1]), atomically.
 ///
 /// # Errors
 /// I/O or encoding failures.
@@ -175,45 +177,29 @@ pub fn save_png(img: &Image<f32>, path: &Path) -> Result<(), ImageIoError> {
         path: path.display().to_string(),
         msg: "bad image size".into(),
     })?;
-    buf.save(path).map_err(|e| ImageIoError::Write {
-        path: path.display().to_string(),
-        msg: e.to_string(),
-    })
+    save_rgb8(&buf, path)
 }
 
-/// Writes an animated, looping GIF of equally sized frames (`delay_ms` per frame).
+/// Writes an 8-bit RGB image as a PNG, atomically.
 ///
 /// # Errors
-/// I/O or encoding failures, or frames of different sizes.
-pub fn save_gif(frames: &[Image<f32>], delay_ms: u32, path: &Path) -> Result<(), ImageIoError> {
-    use image::codecs::gif::{GifEncoder, Repeat};
+/// I/O or encoding failures.
+pub fn save_rgb8(img: &image::RgbImage, path: &Path) -> Result<(), ImageIoError> {
+    use image::ImageEncoder as _;
     let err = |msg: String| ImageIoError::Write {
         path: path.display().to_string(),
         msg,
     };
-    let file = std::fs::File::create(path).map_err(|e| err(e.to_string()))?;
-    let mut enc = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
-    enc.set_repeat(Repeat::Infinite)
-        .map_err(|e| err(e.to_string()))?;
-    let delay = image::Delay::from_numer_denom_ms(delay_ms, 1);
-    for f in frames {
-        if !f.same_size(&frames[0]) {
-            return Err(err("GIF frames differ in size".into()));
-        }
-        let rgba: Vec<u8> = to_rgb8(f)
-            .chunks_exact(3)
-            .flat_map(|p| [p[0], p[1], p[2], 255])
-            .collect();
-        let buf = image::RgbaImage::from_raw(
-            u32::try_from(f.width()).unwrap_or(u32::MAX),
-            u32::try_from(f.height()).unwrap_or(u32::MAX),
-            rgba,
+    let mut file = AtomicFile::create(path).map_err(|e| err(e.to_string()))?;
+    image::codecs::png::PngEncoder::new(&mut file)
+        .write_image(
+            img.as_raw(),
+            img.width(),
+            img.height(),
+            image::ExtendedColorType::Rgb8,
         )
-        .ok_or_else(|| err("bad frame size".into()))?;
-        enc.encode_frame(image::Frame::from_parts(buf, 0, 0, delay))
-            .map_err(|e| err(e.to_string()))?;
-    }
-    Ok(())
+        .map_err(|e| err(e.to_string()))?;
+    file.commit().map_err(|e| err(e.to_string()))
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@ pub mod dataset;
 pub mod dnerf;
 pub mod format;
 pub mod frame_cache;
+pub mod gif_writer;
 pub mod image_io;
 mod load;
 pub mod n3dv;

@@ -182,7 +182,7 @@ impl NpyMatrix {
     /// # Errors
     /// I/O failures, naming the file.
     pub fn write(&self, path: &Path) -> Result<(), NpyError> {
-        std::fs::write(path, self.to_bytes()).map_err(|e| NpyError {
+        crate::atomic::write_atomic(path, &self.to_bytes()).map_err(|e| NpyError {
             path: path.display().to_string(),
             msg: format!("cannot write: {e}"),
         })

@@ -25,7 +25,6 @@
 //! this reader, which is small, fuzzed (`fuzz/`, target `ply_parse`) and tested below.
 
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::Path;
 
 /// Largest magnitude accepted for the position properties `x`, `y` and `z`: scenes are
@@ -327,11 +326,7 @@ impl PlyTable {
                 out.extend_from_slice(&(c[v] as f32).to_le_bytes());
             }
         }
-        let tmp = path.with_extension("ply.tmp");
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&out)?;
-        f.sync_all()?;
-        std::fs::rename(tmp, path)
+        crate::atomic::write_atomic(path, &out)
     }
 }
 

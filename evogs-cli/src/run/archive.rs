@@ -127,14 +127,7 @@ impl Archive {
                 buf.extend_from_slice(&v.to_le_bytes());
             }
         }
-        let tmp = path.with_extension("tmp");
-        {
-            use std::io::Write as _;
-            let mut f = std::fs::File::create(&tmp).map_err(io)?;
-            f.write_all(&buf).map_err(io)?;
-            f.sync_all().map_err(io)?;
-        }
-        std::fs::rename(&tmp, path).map_err(io)
+        crate::atomic::write_atomic(path, &buf).map_err(io)
     }
 
     /// Reads an archive (see [`from_bytes`](Self::from_bytes)).

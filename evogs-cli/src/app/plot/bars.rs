@@ -134,7 +134,7 @@ pub fn save_bars(
     }
     line(&mut img, (x0, y0), (x0, y1), black);
     line(&mut img, (x0, y1), (x1, y1), black);
-    img.save(path)
+    crate::data::image_io::save_rgb8(&img, path)
         .map_err(|e| format!("{}: cannot write the chart: {e}", path.display()))
 }
 

@@ -119,6 +119,6 @@ pub fn save_curve(log: &[LogRow], path: &Path) -> Result<(), String> {
         false,
         Rgb([30, 90, 200]),
     );
-    img.save(path)
+    crate::data::image_io::save_rgb8(&img, path)
         .map_err(|e| format!("{}: cannot write the curve: {e}", path.display()))
 }

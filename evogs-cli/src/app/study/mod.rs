@@ -24,9 +24,11 @@ pub use protocol::{HeldOutSet, StudyProtocol};
 pub use report::{Cell, CostRow, Provenance, Row, RunRecord, SetMetrics, Stat, StudySummary};
 
 use super::Reporter;
+use super::error::CommandError;
+use super::load::load_dataset;
 use super::paths::shipped_scene;
 use super::plot::{BarGroup, save_bars};
-use super::train::{CommandError, TrainArgs, load_dataset, resolve_config};
+use super::train::{TrainArgs, resolve_config};
 use crate::config::TrainConfig;
 use crate::model::Motion;
 use progress::{ChannelReporter, Message, StudyProgress};
@@ -452,19 +454,14 @@ fn write_chart(s: &StudySummary, path: &Path) -> Result<(), CommandError> {
         })
         .collect();
     let names: Vec<&str> = s.motions.iter().map(|&m| m.as_str()).collect();
-    let tmp = path.with_extension(format!("tmp-{}.png", std::process::id()));
     save_bars(
         "evogs study: held-out PSNR by protocol and motion",
         "PSNR (dB)",
         &names,
         &groups,
-        &tmp,
+        path,
     )
-    .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display())))
-    .map_err(|e| {
-        std::fs::remove_file(&tmp).ok();
-        CommandError(e)
-    })
+    .map_err(CommandError)
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 
 use super::report::RunRecord;
 use crate::app::Reporter;
-use crate::app::train::CommandError;
+use crate::app::error::CommandError;
 use std::sync::mpsc::Sender;
 use std::time::Instant;
 

@@ -4,8 +4,9 @@
 use super::protocol::{HeldOutSet, StudyProtocol};
 use super::report::{RunRecord, SetMetrics};
 use crate::app::Reporter;
+use crate::app::error::CommandError;
 use crate::app::paths::RunFolder;
-use crate::app::train::{CommandError, TrainArgs, train};
+use crate::app::train::{TrainArgs, train};
 use crate::data::Dataset;
 use crate::eval::evaluate_views;
 use crate::model::Motion;
@@ -82,18 +83,12 @@ pub(super) fn read_record(path: &Path) -> Result<RunRecord, CommandError> {
     })
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so a
-/// reader never sees half a file.
+/// Writes `bytes` to `path` atomically ([`crate::atomic`]).
 ///
 /// # Errors
-/// I/O failures (the temporary file is removed).
+/// I/O failures, naming the file.
 pub(super) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CommandError> {
-    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
-    let res = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    res.map_err(|e| {
-        std::fs::remove_file(&tmp).ok();
-        CommandError(format!("{}: cannot write: {e}", path.display()))
-    })
+    crate::atomic::write_atomic_named(path, bytes).map_err(CommandError)
 }
 
 /// Trains (or resumes) the run, evaluates its held-out sets and writes its record.

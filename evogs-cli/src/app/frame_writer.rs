@@ -1,0 +1,124 @@
+//! Writing a rendered sequence: numbered PNG frames as they come and, optionally, a GIF
+//! streamed beside them, in constant memory whatever the length. Every file is written
+//! atomically; an interrupt (SIGINT/SIGTERM) stops after the current frame, keeping the
+//! finished frames and leaving no partial GIF.
+
+use super::error::CommandError;
+use super::interrupt;
+use crate::data::gif_writer::GifWriter;
+use crate::data::image_io;
+use evogs_splat::Image;
+use std::path::{Path, PathBuf};
+
+/// GIF frame duration.
+const GIF_DELAY_MS: u32 = 80;
+
+/// The frames of one sequence being written to a folder.
+#[derive(Debug)]
+pub struct FrameWriter {
+    dir: PathBuf,
+    gif: Option<(GifWriter, PathBuf)>,
+    written: usize,
+}
+
+/// What a finished sequence left on disk.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct FramesWritten {
+    /// The folder of the frames `frame_0000.png`, `frame_0001.png`, ...
+    pub dir: PathBuf,
+    /// How many frames.
+    pub count: usize,
+    /// The GIF, when one was asked for.
+    pub gif: Option<PathBuf>,
+}
+
+impl FramesWritten {
+    /// The path of frame `i`.
+    #[must_use]
+    pub fn frame(&self, i: usize) -> PathBuf {
+        frame_path(&self.dir, i)
+    }
+}
+
+fn frame_path(dir: &Path, i: usize) -> PathBuf {
+    dir.join(format!("frame_{i:04}.png"))
+}
+
+impl FrameWriter {
+    /// Creates the folder (and its parents) and, with `gif_name`, starts `dir/gif_name`.
+    ///
+    /// # Errors
+    /// The folder or the GIF's temporary file cannot be created.
+    pub fn create(dir: &Path, gif_name: Option<&str>) -> Result<Self, CommandError> {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| CommandError(format!("{}: cannot create: {e}", dir.display())))?;
+        let gif = match gif_name {
+            Some(name) => {
+                let p = dir.join(name);
+                let g = GifWriter::create(&p, GIF_DELAY_MS).map_err(CommandError::from_display)?;
+                Some((g, p))
+            }
+            None => None,
+        };
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            gif,
+            written: 0,
+        })
+    }
+
+    /// Fails with a clear message if an interrupt was requested, before frame `written`
+    /// of `total` (the request is withdrawn: the command has stopped for it).
+    ///
+    /// # Errors
+    /// The interrupt, naming what was kept.
+    pub fn check_interrupt(&self, total: usize) -> Result<(), CommandError> {
+        if !interrupt::requested() {
+            return Ok(());
+        }
+        interrupt::clear();
+        Err(CommandError(format!(
+            "interrupted: {} of {total} frames written to {}{}",
+            self.written,
+            self.dir.display(),
+            if self.gif.is_some() {
+                "; no GIF written"
+            } else {
+                ""
+            }
+        )))
+    }
+
+    /// Writes the next frame (`frame_NNNN.png`) and appends it to the GIF.
+    ///
+    /// # Errors
+    /// I/O or encoding failures, naming the file.
+    pub fn push(&mut self, img: &Image<f32>) -> Result<(), CommandError> {
+        let p = frame_path(&self.dir, self.written);
+        image_io::save_png(img, &p).map_err(CommandError::from_display)?;
+        if let Some((g, _)) = &mut self.gif {
+            g.push(img).map_err(CommandError::from_display)?;
+        }
+        self.written += 1;
+        Ok(())
+    }
+
+    /// Completes the GIF and reports what was written.
+    ///
+    /// # Errors
+    /// The GIF cannot be completed.
+    pub fn finish(self) -> Result<FramesWritten, CommandError> {
+        let gif = match self.gif {
+            Some((g, p)) => {
+                g.finish().map_err(CommandError::from_display)?;
+                Some(p)
+            }
+            None => None,
+        };
+        Ok(FramesWritten {
+            dir: self.dir,
+            count: self.written,
+            gif,
+        })
+    }
+}
