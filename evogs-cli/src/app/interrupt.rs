@@ -23,7 +23,9 @@ pub fn install() -> Result<(), String> {
             eprintln!("\nsecond interrupt: exiting now");
             std::process::exit(130);
         }
-        eprintln!("\ninterrupt: stopping after this iteration and writing a checkpoint");
+        eprintln!(
+            "\ninterrupt: stopping at the next safe point (training: after this iteration, with a checkpoint; rendering: after this frame); interrupt again to exit now"
+        );
     })
     .map_err(|e| format!("cannot install the interrupt handler: {e}"))
 }

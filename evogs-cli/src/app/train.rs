@@ -126,6 +126,35 @@ fn frames_note(ds: &Dataset, cfg: &TrainConfig) -> String {
     }
 }
 
+/// Where the initial Gaussians come from: the dataset's `points3d.ply`, or random points
+/// (and why: no file, an empty one, or `init.use_points = false`).
+fn init_note(ds: &Dataset, cfg: &TrainConfig) -> String {
+    let ply = ds.root.join("points3d.ply");
+    let random = format!(
+        "{} random points in [-{e}, {e}]^3 (init.random_points, init.random_extent)",
+        cfg.init.random_points,
+        e = cfg.init.random_extent
+    );
+    match &ds.points {
+        Some(p) if !p.positions.is_empty() && cfg.init.use_points => format!(
+            "initial Gaussians: {} points from {}",
+            p.positions.len(),
+            ply.display()
+        ),
+        Some(p) if !p.positions.is_empty() => {
+            format!("initial Gaussians: init.use_points = false, so {random}")
+        }
+        Some(_) => format!(
+            "initial Gaussians: {} has no vertices, so {random}",
+            ply.display()
+        ),
+        None => format!(
+            "initial Gaussians: no {} in the dataset, so {random}",
+            ply.display()
+        ),
+    }
+}
+
 fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
     let mut s =
         String::from("iteration,seconds,loss,l1,psnr,ssim,regularizers,gaussians,lr_position\n");
@@ -270,6 +299,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         rep.info(&format!("resuming at iteration {}", t.iteration));
         t
     } else {
+        rep.info(&init_note(&ds, &cfg));
         let pts = ds
             .points
             .as_ref()

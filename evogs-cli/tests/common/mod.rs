@@ -59,3 +59,30 @@ pub(crate) fn tiny_run(dir: &Path) -> PathBuf {
     .expect("a tiny run");
     run
 }
+
+/// Copies a folder tree (a dataset to modify in a test).
+pub(crate) fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("copy destination");
+    for e in std::fs::read_dir(from).expect("copy source") {
+        let e = e.expect("entry");
+        let dst = to.join(e.file_name());
+        if e.file_type().expect("type").is_dir() {
+            copy_tree(&e.path(), &dst);
+        } else {
+            std::fs::copy(e.path(), &dst).expect("copy");
+        }
+    }
+}
+
+/// A reporter that keeps the info lines.
+#[derive(Default)]
+pub(crate) struct Infos(pub(crate) Vec<String>);
+
+impl evogs_cli::app::Reporter for Infos {
+    fn start(&mut self, _: &str, _: u64) {}
+    fn progress(&mut self, _: u64, _: &str) {}
+    fn finish(&mut self) {}
+    fn info(&mut self, m: &str) {
+        self.0.push(m.to_string());
+    }
+}
