@@ -67,7 +67,7 @@ enum Cmd {
         #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
         iters: Option<u64>,
         /// Random seed.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         seed: Option<u64>,
         /// Continue from RUN/checkpoint.bin (with --iters to extend the run).
         #[arg(long, conflicts_with = "force")]
@@ -193,7 +193,7 @@ enum Cmd {
         #[arg(long)]
         run: PathBuf,
         /// Time (any, negative too).
-        #[arg(long, allow_negative_numbers = true)]
+        #[arg(long, allow_hyphen_values = true)]
         time: f64,
         /// Output .ply file.
         #[arg(long)]
@@ -288,8 +288,51 @@ impl Reporter for Terminal {
     }
 }
 
-fn main() -> Result<()> {
-    let cli = Cli::parse();
+/// Parses the command line; a usage error is printed as one line (clap's first paragraph,
+/// which names the flag or value at fault) with a pointer to `--help`, exit code 2.
+fn parse_cli() -> Cli {
+    use clap::error::ErrorKind;
+    match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e)
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) =>
+        {
+            e.exit()
+        }
+        Err(e) => {
+            let text = e.render().to_string();
+            let first: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            let tip = text
+                .lines()
+                .map(str::trim)
+                .find(|l| l.starts_with("tip:"))
+                .map(|t| format!(" ({t})"))
+                .unwrap_or_default();
+            eprintln!("{}{tip}; see `evogs --help`", first.join(" "));
+            std::process::exit(2);
+        }
+    }
+}
+
+/// Runs the command; an error is printed as one line (`Error: ...`, its causes joined with
+/// `: `, never a backtrace) with exit code 1.
+fn main() {
+    if let Err(e) = run(parse_cli()) {
+        eprintln!("Error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
     evogs_cli::app::interrupt::install().map_err(anyhow::Error::msg)?;
     let mut term = Terminal {
         bar: None,
@@ -400,7 +443,7 @@ fn main() -> Result<()> {
                 .as_deref()
                 .map(parse_range)
                 .transpose()
-                .map_err(anyhow::Error::msg)?;
+                .map_err(|e| anyhow::anyhow!("--time-range: {e}"))?;
             let (m, path) = evaluate_run(&run, split, range, data.as_deref(), format, &mut term)?;
             println!("{:>10} {:>8} {:>8}", "time", "PSNR", "SSIM");
             for f in &m.frames {
@@ -420,7 +463,8 @@ fn main() -> Result<()> {
                 &RenderArgs {
                     run,
                     out,
-                    times: parse_times(&frames.times).map_err(anyhow::Error::msg)?,
+                    times: parse_times(&frames.times)
+                        .map_err(|e| anyhow::anyhow!("--times: {e}"))?,
                     camera: frames.camera,
                     gif: frames.gif,
                     data: frames.data,
@@ -444,9 +488,9 @@ fn main() -> Result<()> {
             let args = InjectArgs {
                 run,
                 out,
-                mask: parse_mask(&mask).map_err(anyhow::Error::msg)?,
-                field: parse_field(&field).map_err(anyhow::Error::msg)?,
-                times: parse_times(&frames.times).map_err(anyhow::Error::msg)?,
+                mask: parse_mask(&mask).map_err(|e| anyhow::anyhow!("--mask: {e}"))?,
+                field: parse_field(&field).map_err(|e| anyhow::anyhow!("--field: {e}"))?,
+                times: parse_times(&frames.times).map_err(|e| anyhow::anyhow!("--times: {e}"))?,
                 camera: frames.camera,
                 gif: frames.gif,
                 data: frames.data,

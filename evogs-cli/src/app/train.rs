@@ -79,6 +79,9 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig, CommandError> {
         cfg = cfg
             .merge_toml(&text)
             .map_err(|e| CommandError(format!("{}: {e}", p.display())))?;
+        // The file's values are checked as the file's, before the flags override them.
+        cfg.validate()
+            .map_err(|e| CommandError(format!("{}: {e}", p.display())))?;
     }
     if let Some(m) = args.motion {
         cfg.dynamics.motion = m;

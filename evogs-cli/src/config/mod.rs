@@ -214,9 +214,12 @@ impl TrainConfig {
     /// Malformed TOML, unknown keys or wrongly typed values.
     pub fn merge_toml(&self, text: &str) -> Result<Self, String> {
         let mut base = toml::Value::try_from(self).map_err(|e| e.to_string())?;
-        let over: toml::Value = toml::from_str(text).map_err(|e| e.to_string())?;
+        let over: toml::Value = toml::from_str(text).map_err(|e| toml_error_line(text, &e))?;
         merge(&mut base, over);
-        base.try_into().map_err(|e: toml::de::Error| e.to_string())
+        serde_path_to_error::deserialize(base).map_err(|e| {
+            let msg = e.inner().message().trim().to_string();
+            format!("{}: {msg}", e.path())
+        })
     }
 
     /// A stored run configuration (`RUN/config.toml`, a checkpoint's copy). Read over `fast`
@@ -274,7 +277,7 @@ impl TrainConfig {
         self.dynamics
             .method
             .parse::<evogs_ode::Method>()
-            .map_err(|e| format!("dynamics.method: {e}"))?;
+            .map_err(|e| format!("dynamics.method = `{}`: {e}", self.dynamics.method))?;
         chk(
             matches!(self.dynamics.time_mapping.as_str(), "normalized" | "raw"),
             "dynamics.time_mapping must be `normalized` or `raw`",
@@ -284,11 +287,14 @@ impl TrainConfig {
             "field.hexplane.resolution entries must be at least 2",
         )?;
         chk(
-            !self.field.hexplane.multires.is_empty()
-                && self.field.hexplane.channels > 0
-                && self.field.width > 0,
-            "field sizes must be positive",
+            !self.field.hexplane.multires.is_empty(),
+            "field.hexplane.multires must list at least one level",
         )?;
+        chk(
+            self.field.hexplane.channels > 0,
+            "field.hexplane.channels must be at least 1",
+        )?;
+        chk(self.field.width > 0, "field.width must be at least 1")?;
         chk(
             self.schedule.warmup_iters <= self.schedule.iterations,
             "schedule.warmup_iters must not exceed schedule.iterations",
@@ -422,6 +428,20 @@ impl TrainConfig {
 impl Default for TrainConfig {
     fn default() -> Self {
         Self::fast()
+    }
+}
+
+/// A TOML syntax error as one line: where (line and the line's text) and what.
+fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
+    let msg = e.message().trim();
+    match e.span() {
+        Some(span) => {
+            let start = span.start.min(text.len());
+            let line = text[..start].matches('\n').count() + 1;
+            let src = text.lines().nth(line - 1).unwrap_or("").trim();
+            format!("line {line} (`{src}`): {msg}")
+        }
+        None => msg.to_string(),
     }
 }
 

@@ -9,9 +9,16 @@
 
 use super::dataset::{DataError, Dataset, LoadOptions, SplitName, View, optional_point_cloud};
 use super::format::DataFormat;
-use evogs_splat::Image;
+use evogs_splat::{Image, PinholeCamera};
 use serde::Deserialize;
 use std::path::Path;
+
+/// The narrowest and widest horizontal fields of view accepted (radians): about 0.06° to
+/// 179.94°.
+const MIN_FOV: f64 = 1e-3;
+const MAX_FOV: f64 = std::f64::consts::PI - 1e-3;
+/// The largest camera coordinate accepted (scenes are metres to kilometres across).
+const MAX_COORDINATE: f64 = 1e6;
 
 #[derive(Deserialize)]
 struct TransformsFile {
@@ -78,18 +85,23 @@ fn load_split(
         path: p.clone(),
         msg: e.to_string(),
     })?;
-    let file: TransformsFile = serde_json::from_str(&text).map_err(|e| DataError::Json {
-        path: p.clone(),
-        msg: e.to_string(),
+    let de = &mut serde_json::Deserializer::from_str(&text);
+    let file: TransformsFile = serde_path_to_error::deserialize(de).map_err(|e| {
+        let at = e.path().to_string();
+        DataError::Json {
+            path: p.clone(),
+            msg: if at == "." {
+                e.inner().to_string()
+            } else {
+                format!("{at}: {}", e.inner())
+            },
+        }
     })?;
-    if !(file.camera_angle_x.is_finite()
-        && file.camera_angle_x > 0.0
-        && file.camera_angle_x < std::f64::consts::PI)
-    {
+    if !(file.camera_angle_x.is_finite() && (MIN_FOV..=MAX_FOV).contains(&file.camera_angle_x)) {
         return Err(DataError::Invalid {
             path: p,
             msg: format!(
-                "camera_angle_x = {} is not a field of view",
+                "camera_angle_x = {} is not a field of view (radians in [{MIN_FOV}, π − {MIN_FOV}])",
                 file.camera_angle_x
             ),
         });
@@ -102,16 +114,32 @@ fn load_split(
     }
     let mut views = Vec::with_capacity(file.frames.len());
     for (i, f) in file.frames.iter().enumerate() {
-        if !f.transform_matrix.iter().flatten().all(|v| v.is_finite()) {
+        if !f
+            .transform_matrix
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite() && v.abs() <= MAX_COORDINATE)
+        {
             return Err(DataError::Invalid {
                 path: p,
-                msg: format!("frame {i}: transform_matrix has a non-finite entry"),
+                msg: format!(
+                    "frames[{i}].transform_matrix has an entry that is not finite or beyond \
+                     ±{MAX_COORDINATE:e}"
+                ),
+            });
+        }
+        if let Err(e) =
+            PinholeCamera::<f64>::from_dnerf(f.transform_matrix, file.camera_angle_x, 1, 1)
+        {
+            return Err(DataError::Invalid {
+                path: p,
+                msg: format!("frames[{i}].transform_matrix is not a camera pose: {e}"),
             });
         }
         if !f.time.is_finite() || (split == SplitName::Train && !(0.0..=1.0).contains(&f.time)) {
             return Err(DataError::Invalid {
                 path: p,
-                msg: format!("frame {i}: time {} outside [0, 1]", f.time),
+                msg: format!("frames[{i}].time = {} is outside [0, 1]", f.time),
             });
         }
         let mut file_path = root.join(&f.file_path);

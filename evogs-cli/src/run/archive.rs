@@ -55,13 +55,16 @@ impl Archive {
             u64s: Vec::new(),
         }
     }
-    /// Adds an `f32` array.
+    /// Adds an `f32` array, or replaces the one of that name.
     pub fn put_f32(&mut self, name: &str, data: &[f32]) {
-        self.f32s.push((name.to_string(), data.to_vec()));
+        put(&mut self.f32s, name, data);
     }
-    /// Adds a `u64` array.
+    /// Adds a `u64` array, or replaces the one of that name.
     pub fn put_u64(&mut self, name: &str, data: &[u64]) {
-        self.u64s.push((name.to_string(), data.to_vec()));
+        put(&mut self.u64s, name, data);
+    }
+    fn has(&self, name: &str) -> bool {
+        self.f32s.iter().any(|(n, _)| n == name) || self.u64s.iter().any(|(n, _)| n == name)
     }
     /// An `f32` array by name.
     #[must_use]
@@ -187,6 +190,9 @@ impl Archive {
             .ok_or_else(|| corrupt("no array list"))?
         {
             let name = a["name"].as_str().ok_or_else(|| corrupt("array name"))?;
+            if ar.has(name) {
+                return Err(format!("array `{name}` appears twice"));
+            }
             let len = usize::try_from(a["len"].as_u64().ok_or_else(|| corrupt("array length"))?)
                 .map_err(|_| corrupt("array length"))?;
             match a["kind"].as_str() {
@@ -219,6 +225,13 @@ impl Archive {
             return Err(corrupt("trailing bytes"));
         }
         Ok(ar)
+    }
+}
+
+fn put<T: Clone>(arrays: &mut Vec<(String, Vec<T>)>, name: &str, data: &[T]) {
+    match arrays.iter_mut().find(|(n, _)| n == name) {
+        Some((_, d)) => *d = data.to_vec(),
+        None => arrays.push((name.to_string(), data.to_vec())),
     }
 }
 

@@ -1,0 +1,1173 @@
+//! The `evogs` binary against well over a hundred bad inputs, all made here: malformed
+//! datasets (D-NeRF and multi-view), point clouds, configurations, checkpoints, reference
+//! files and arguments. For each: a non-zero exit that is not a panic, exactly one error
+//! line on stderr that names the file or flag and the problem, and no output left behind
+//! (no run folder, file or temporary file where the command would have written).
+
+#![allow(
+    clippy::semicolon_if_nothing_returned,
+    reason = "the case table holds one-expression edits"
+)]
+
+mod common;
+
+use evogs_cli::run::archive::Archive;
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// An edit of a transforms file.
+type JsonEdit = Box<dyn Fn(&mut serde_json::Value)>;
+/// An edit of a dataset folder.
+type FolderEdit = Box<dyn Fn(&Path)>;
+
+/// One bad invocation: its arguments, the words its error line must contain, and the paths
+/// that must not exist afterwards.
+struct Case {
+    name: String,
+    args: Vec<OsString>,
+    expect: Vec<String>,
+    absent: Vec<PathBuf>,
+}
+
+/// Builds cases for one scratch folder.
+struct Cases {
+    root: PathBuf,
+    list: Vec<Case>,
+    next: usize,
+}
+
+impl Cases {
+    fn new(root: PathBuf) -> Self {
+        Self {
+            root,
+            list: Vec::new(),
+            next: 0,
+        }
+    }
+
+    /// A fresh folder for one case's inputs.
+    fn dir(&mut self, tag: &str) -> PathBuf {
+        self.next += 1;
+        let d = self.root.join(format!("{:03}-{tag}", self.next));
+        std::fs::create_dir_all(&d).expect("case folder");
+        d
+    }
+
+    fn add(
+        &mut self,
+        name: &str,
+        args: &[&dyn AsRef<std::ffi::OsStr>],
+        expect: &[&str],
+        absent: &[&Path],
+    ) {
+        self.list.push(Case {
+            name: name.to_string(),
+            args: args.iter().map(|a| a.as_ref().to_os_string()).collect(),
+            expect: expect.iter().map(|s| (*s).to_string()).collect(),
+            absent: absent.iter().map(|p| p.to_path_buf()).collect(),
+        });
+    }
+}
+
+/// A small D-NeRF scene: three training frames, one test frame, the point cloud.
+fn small_scene(dst: &Path) {
+    let src = evogs_cli::app::paths::shipped_scene();
+    for (split, keep) in [("train", 3), ("test", 1)] {
+        std::fs::create_dir_all(dst.join(split)).expect("split folder");
+        let name = format!("transforms_{split}.json");
+        let text = std::fs::read_to_string(src.join(&name)).expect("json");
+        let mut v: serde_json::Value = serde_json::from_str(&text).expect("json");
+        let frames = v["frames"].as_array_mut().expect("frames");
+        frames.truncate(keep);
+        for f in frames.iter() {
+            let rel = f["file_path"].as_str().expect("path").to_string() + ".png";
+            std::fs::copy(src.join(&rel), dst.join(&rel)).expect("frame");
+        }
+        std::fs::write(dst.join(name), serde_json::to_string(&v).expect("json")).expect("write");
+    }
+    std::fs::copy(src.join("points3d.ply"), dst.join("points3d.ply")).expect("points");
+}
+
+fn edit_json(path: &Path, f: impl FnOnce(&mut serde_json::Value)) {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).expect("read")).expect("json");
+    f(&mut v);
+    std::fs::write(path, serde_json::to_string(&v).expect("json")).expect("write");
+}
+
+/// A binary little-endian PLY header for `x y z` floats and `n` declared vertices.
+fn ply_header(n: &str) -> Vec<u8> {
+    format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+    )
+    .into_bytes()
+}
+
+fn ply_body(points: &[[f32; 3]]) -> Vec<u8> {
+    points
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
+/// A `.npy` file of little-endian f64 values with the given shape.
+fn npy(shape: &str, values: &[f64]) -> Vec<u8> {
+    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape}, }}");
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend_from_slice(&u16::try_from(header.len()).expect("short").to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    out.extend(values.iter().flat_map(|v| v.to_le_bytes()));
+    out
+}
+
+/// The shipped small multi-view scene (copied).
+fn mv_scene(dst: &Path) {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/toys-mv-mini");
+    common::copy_tree(&src, dst);
+}
+
+/// The tiny model with a case's sections: a section the case names replaces the model's
+/// own, so the file has no duplicate tables (which would be a different error).
+fn merged_config(case: &str) -> String {
+    let mut out = String::new();
+    for block in common::TINY_MODEL
+        .split("\n[")
+        .filter(|b| !b.trim().is_empty())
+    {
+        let block = if block.starts_with('[') {
+            block.to_string()
+        } else {
+            format!("[{block}")
+        };
+        let head = block.lines().next().unwrap_or_default().to_string();
+        if !case.contains(&head) {
+            out.push_str(&block);
+            out.push('\n');
+        }
+    }
+    out.push_str(case);
+    out
+}
+
+/// Runs one case; `Err` describes how it failed the contract.
+fn check(case: &Case) -> Result<(), String> {
+    let out = Command::new(env!("CARGO_BIN_EXE_evogs"))
+        .args(&case.args)
+        .env("NO_COLOR", "1")
+        .output()
+        .map_err(|e| format!("cannot run: {e}"))?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let code = out.status.code();
+    if out.status.success() {
+        return Err("exited 0".into());
+    }
+    if code == Some(101) || stderr.contains("panicked") {
+        return Err(format!("panicked: {stderr}"));
+    }
+    if code.is_none() {
+        return Err(format!("killed by a signal: {stderr}"));
+    }
+    let errors: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("Error") || l.starts_with("error"))
+        .collect();
+    if errors.len() != 1 || stderr.contains("Caused by") {
+        return Err(format!("not exactly one error line: {stderr}"));
+    }
+    let line = errors[0];
+    for w in &case.expect {
+        if !line.contains(w.as_str()) {
+            return Err(format!("the error line lacks `{w}`: {line}"));
+        }
+    }
+    for p in &case.absent {
+        if p.exists() {
+            return Err(format!("{} was left behind ({line})", p.display()));
+        }
+        if let (Some(dir), Some(name)) = (p.parent(), p.file_name()) {
+            let tmp = format!(".{}.tmp-", name.to_string_lossy());
+            if let Ok(rd) = std::fs::read_dir(dir) {
+                for e in rd.flatten() {
+                    if e.file_name().to_string_lossy().starts_with(&tmp) {
+                        return Err(format!("temporary {} left behind", e.path().display()));
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+#[allow(clippy::too_many_lines, reason = "one table of cases")]
+fn build(c: &mut Cases) {
+    let root = c.root.clone();
+    let scene = root.join("scene");
+    small_scene(&scene);
+    let tiny = common::tiny_config(
+        &root,
+        "[schedule]\nwarmup_iters = 1\niterations = 2\ncurriculum_iters = 0\n",
+    );
+    let run = common::tiny_run(&root);
+    let out = root.join("out-run");
+
+    // ---- arguments
+    let d = &scene;
+    let bad_args: &[(&str, Vec<&str>, &[&str])] = &[
+        (
+            "iters negative",
+            vec!["train", "--iters", "-5"],
+            &["--iters", "-5"],
+        ),
+        (
+            "iters zero",
+            vec!["train", "--iters", "0"],
+            &["--iters", "0"],
+        ),
+        (
+            "iters text",
+            vec!["train", "--iters", "many"],
+            &["--iters", "many"],
+        ),
+        ("seed negative", vec!["train", "--seed", "-1"], &["--seed"]),
+        (
+            "unknown motion",
+            vec!["train", "--motion", "warp"],
+            &["--motion", "warp"],
+        ),
+        (
+            "unknown protocol",
+            vec!["train", "--protocol", "sometimes"],
+            &["--protocol", "sometimes"],
+        ),
+        (
+            "unknown format",
+            vec!["train", "--format", "colmap"],
+            &["--format", "colmap"],
+        ),
+        (
+            "resume and force",
+            vec!["train", "--resume", "--force"],
+            &["--force"],
+        ),
+        ("study seeds 0", vec!["study", "--seeds", "0"], &["--seeds"]),
+        ("study jobs 0", vec!["study", "--jobs", "0"], &["--jobs"]),
+        (
+            "study jobs negative",
+            vec!["study", "--jobs", "-2"],
+            &["--jobs"],
+        ),
+        (
+            "eval split",
+            vec!["eval", "--run", "r", "--split", "everything"],
+            &["--split", "everything"],
+        ),
+        (
+            "render missing out",
+            vec!["render", "--run", "r"],
+            &["--out"],
+        ),
+        (
+            "export time text",
+            vec!["export", "--run", "r", "--time", "noon", "--out", "x.ply"],
+            &["--time", "noon"],
+        ),
+        (
+            "check-order stepper",
+            vec!["check-order", "--stepper", "rk9"],
+            &["--stepper", "rk9"],
+        ),
+        ("unknown subcommand", vec!["fly"], &["fly"]),
+        (
+            "unknown flag",
+            vec!["train", "--speed", "fast"],
+            &["--speed"],
+        ),
+        ("verify no files", vec!["verify"], &["FILES"]),
+    ];
+    for (name, args, expect) in bad_args {
+        let a: Vec<&dyn AsRef<std::ffi::OsStr>> = args
+            .iter()
+            .map(|s| s as &dyn AsRef<std::ffi::OsStr>)
+            .collect();
+        c.add(name, &a, expect, &[]);
+    }
+    let ply_out = root.join("never.ply");
+    for (name, t) in [
+        ("export nan", "nan"),
+        ("export inf", "inf"),
+        ("export -inf", "-inf"),
+        ("export 1e308", "1e308"),
+        ("export -1e6", "-1e6"),
+        ("export 1000", "1000"),
+    ] {
+        c.add(
+            name,
+            &[&"export", &"--run", &run, &"--time", &t, &"--out", &ply_out],
+            &["--time"],
+            &[&ply_out],
+        );
+    }
+    let frames_out = root.join("never-frames");
+    for (name, spec, word) in [
+        ("times two parts", "0:1", "0:1"),
+        ("times text", "a:b:c", "a:b:c"),
+        ("times zero frames", "0:1:0", "0:1:0"),
+        ("times nan", "nan:1:2", "nan:1:2"),
+        ("times inf", "0:inf:2", "0:inf:2"),
+        ("times negative count", "0:1:-3", "0:1:-3"),
+        ("times far past", "-1e6:0:2", "--times"),
+        ("times far future", "0:1e9:2", "--times"),
+    ] {
+        c.add(
+            name,
+            &[
+                &"render",
+                &"--run",
+                &run,
+                &"--out",
+                &frames_out,
+                &"--times",
+                &spec,
+                &"--data",
+                d,
+            ],
+            &[word],
+            &[&frames_out],
+        );
+    }
+    for (name, camera) in [
+        ("camera unknown", "sideways"),
+        ("camera bare cam", "cam"),
+        ("camera letters", "camXY"),
+    ] {
+        c.add(
+            name,
+            &[
+                &"render",
+                &"--run",
+                &run,
+                &"--out",
+                &frames_out,
+                &"--camera",
+                &camera,
+                &"--data",
+                d,
+            ],
+            &[camera],
+            &[&frames_out],
+        );
+    }
+    c.add(
+        "rig camera on a monocular scene",
+        &[
+            &"render",
+            &"--run",
+            &run,
+            &"--out",
+            &frames_out,
+            &"--camera",
+            &"rig",
+            &"--data",
+            d,
+        ],
+        &["rig"],
+        &[&frames_out],
+    );
+    for (name, range) in [
+        ("eval range empty", "5:6"),
+        ("eval range reversed", "1:0"),
+        ("eval range nan", "nan:1"),
+        ("eval range one number", "0.5"),
+    ] {
+        c.add(
+            name,
+            &[
+                &"eval",
+                &"--run",
+                &run,
+                &"--time-range",
+                &range,
+                &"--data",
+                d,
+            ],
+            &["--time-range"],
+            &[&run.join("metrics-test-t5-6.json")],
+        );
+    }
+    for (name, mask, field, word) in [
+        ("mask unknown", "cone:0,0,0,1", "translate:0,0,1", "cone"),
+        ("mask nan", "sphere:nan,0,0,1", "translate:0,0,1", "nan"),
+        (
+            "mask negative radius",
+            "sphere:0,0,0,-1",
+            "translate:0,0,1",
+            "R > 0",
+        ),
+        ("field unknown", "sphere:0,0,0,1", "teleport:1", "teleport"),
+        ("field inf", "sphere:0,0,0,1", "translate:0,inf,1", "inf"),
+        (
+            "field short",
+            "sphere:0,0,0,1",
+            "translate:0,1",
+            "translate",
+        ),
+    ] {
+        let o = root.join(format!("never-inject-{}", name.replace(' ', "-")));
+        c.add(
+            name,
+            &[
+                &"inject", &"--run", &run, &"--out", &o, &"--mask", &mask, &"--field", &field,
+                &"--data", d,
+            ],
+            &[word],
+            &[&o],
+        );
+    }
+
+    // ---- configurations (a valid scene, a bad configuration: no run folder appears)
+    let configs: &[(&str, &str, &str)] = &[
+        (
+            "position lr nan",
+            "[optim]\nposition_lr_init = nan\n",
+            "position_lr_init",
+        ),
+        (
+            "feature lr nan",
+            "[optim]\nfeature_lr = nan\n",
+            "feature_lr",
+        ),
+        (
+            "opacity lr inf",
+            "[optim]\nopacity_lr = inf\n",
+            "opacity_lr",
+        ),
+        (
+            "scaling lr negative",
+            "[optim]\nscaling_lr = -0.1\n",
+            "scaling_lr",
+        ),
+        (
+            "coherence nan",
+            "[loss]\nlambda_coherence = nan\n",
+            "lambda_coherence",
+        ),
+        (
+            "random extent negative",
+            "[init]\nrandom_extent = -1\n",
+            "random_extent",
+        ),
+        (
+            "random points zero",
+            "[init]\nuse_points = false\nrandom_points = 0\n",
+            "random_points",
+        ),
+        (
+            "grad threshold negative",
+            "[densify]\ngrad_threshold = -1\n",
+            "grad_threshold",
+        ),
+        (
+            "min opacity above one",
+            "[densify]\nmin_opacity = 1.5\n",
+            "min_opacity",
+        ),
+        (
+            "background nan",
+            "[data]\nbackground = [nan, 1.0, 1.0]\n",
+            "background",
+        ),
+        (
+            "background two values",
+            "[data]\nbackground = [1.0, 1.0]\n",
+            "background",
+        ),
+        ("downscale zero", "[data]\ndownscale = 0\n", "downscale"),
+        (
+            "split time two",
+            "[data]\nprotocol = \"future\"\nsplit_time = 2.0\n",
+            "split_time",
+        ),
+        (
+            "stride zero",
+            "[data]\nprotocol = \"sparse\"\nstride = 0\n",
+            "stride",
+        ),
+        (
+            "iterations as text",
+            "[schedule]\niterations = \"many\"\n",
+            "iterations",
+        ),
+        ("unknown section", "[turbo]\nboost = true\n", "turbo"),
+        (
+            "unknown key",
+            "[optim]\nlearning_rate = 0.1\n",
+            "learning_rate",
+        ),
+        ("not toml", "[optim\nfeature_lr = 0.1\n", "tiny.toml"),
+        ("field width zero", "[field]\nwidth = 0\n", "width"),
+        ("cache zero", "[data]\ncache_mb = 0\n", "cache_mb"),
+        ("sh degree nine", "[init]\nsh_degree = 9\n", "sh_degree"),
+        ("unknown method", "[dynamics]\nmethod = \"rk9\"\n", "rk9"),
+        (
+            "checkpoint minutes negative",
+            "[schedule]\ncheckpoint_minutes = -1.0\n",
+            "checkpoint_minutes",
+        ),
+    ];
+    for (name, text, word) in configs {
+        let dir = c.dir("config");
+        let cfg = dir.join("tiny.toml");
+        std::fs::write(&cfg, merged_config(text)).expect("config");
+        let o = dir.join("run");
+        c.add(
+            name,
+            &[&"train", &"--data", d, &"--out", &o, &"--config", &cfg],
+            &[word, "tiny.toml"],
+            &[&o],
+        );
+    }
+    let o = root.join("never-run-split");
+    c.add(
+        "flag split time two",
+        &[
+            &"train",
+            &"--data",
+            d,
+            &"--out",
+            &o,
+            &"--config",
+            &tiny,
+            &"--protocol",
+            &"future",
+            &"--split-time",
+            &"2",
+        ],
+        &["split_time"],
+        &[&o],
+    );
+    let missing_cfg = root.join("no-such.toml");
+    c.add(
+        "config missing",
+        &[
+            &"train",
+            &"--data",
+            d,
+            &"--out",
+            &out,
+            &"--config",
+            &missing_cfg,
+        ],
+        &["no-such.toml"],
+        &[&out],
+    );
+    c.add(
+        "preset unknown",
+        &[
+            &"train",
+            &"--data",
+            d,
+            &"--out",
+            &out,
+            &"--preset",
+            &"turbo",
+        ],
+        &["turbo"],
+        &[&out],
+    );
+
+    // ---- D-NeRF datasets
+    let json_edits: Vec<(&str, JsonEdit, &str)> = vec![
+        (
+            "no frames",
+            Box::new(|v| v["frames"] = serde_json::json!([])),
+            "frames",
+        ),
+        (
+            "frames not a list",
+            Box::new(|v| v["frames"] = serde_json::json!(3)),
+            "frames",
+        ),
+        (
+            "no camera angle",
+            Box::new(|v| {
+                v.as_object_mut().expect("object").remove("camera_angle_x");
+            }),
+            "camera_angle_x",
+        ),
+        (
+            "camera angle zero",
+            Box::new(|v| v["camera_angle_x"] = serde_json::json!(0.0)),
+            "camera_angle_x",
+        ),
+        (
+            "camera angle negative",
+            Box::new(|v| v["camera_angle_x"] = serde_json::json!(-0.7)),
+            "camera_angle_x",
+        ),
+        (
+            "camera angle tiny",
+            Box::new(|v| v["camera_angle_x"] = serde_json::json!(1e-30)),
+            "camera_angle_x",
+        ),
+        (
+            "camera angle pi",
+            Box::new(|v| v["camera_angle_x"] = serde_json::json!(3.2)),
+            "camera_angle_x",
+        ),
+        (
+            "camera angle text",
+            Box::new(|v| v["camera_angle_x"] = serde_json::json!("wide")),
+            "camera_angle_x",
+        ),
+        (
+            "matrix three rows",
+            Box::new(|v| {
+                v["frames"][0]["transform_matrix"]
+                    .as_array_mut()
+                    .expect("rows")
+                    .truncate(3);
+            }),
+            "transform_matrix",
+        ),
+        (
+            "matrix nan",
+            Box::new(|v| v["frames"][0]["transform_matrix"][0][3] = serde_json::json!("nan")),
+            "transform_matrix",
+        ),
+        (
+            "matrix huge",
+            Box::new(|v| v["frames"][0]["transform_matrix"][0][3] = serde_json::json!(1e300)),
+            "transform_matrix",
+        ),
+        (
+            "matrix singular",
+            Box::new(|v| {
+                v["frames"][0]["transform_matrix"] =
+                    serde_json::json!([[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1]])
+            }),
+            "transform_matrix",
+        ),
+        (
+            "time text",
+            Box::new(|v| v["frames"][1]["time"] = serde_json::json!("noon")),
+            "time",
+        ),
+        (
+            "time huge",
+            Box::new(|v| v["frames"][1]["time"] = serde_json::json!(1e300)),
+            "time",
+        ),
+        (
+            "missing image",
+            Box::new(|v| v["frames"][2]["file_path"] = serde_json::json!("./train/nothing")),
+            "nothing",
+        ),
+        (
+            "file path number",
+            Box::new(|v| v["frames"][2]["file_path"] = serde_json::json!(7)),
+            "file_path",
+        ),
+        (
+            "escaping path",
+            Box::new(|v| v["frames"][2]["file_path"] = serde_json::json!("../../../../etc/passwd")),
+            "passwd",
+        ),
+    ];
+    for (name, edit, word) in json_edits {
+        let dir = c.dir("dnerf");
+        small_scene(&dir);
+        edit_json(&dir.join("transforms_train.json"), edit);
+        let o = dir.join("run");
+        c.add(
+            name,
+            &[&"train", &"--data", &dir, &"--out", &o, &"--config", &tiny],
+            &[word],
+            &[&o],
+        );
+    }
+    let file_edits: &[(&str, &str, &[u8], &str)] = &[
+        (
+            "train json garbage",
+            "transforms_train.json",
+            b"{ frames: oops",
+            "transforms_train.json",
+        ),
+        (
+            "train json empty",
+            "transforms_train.json",
+            b"",
+            "transforms_train.json",
+        ),
+        (
+            "train json a list",
+            "transforms_train.json",
+            b"[1, 2, 3]",
+            "transforms_train.json",
+        ),
+        (
+            "test json garbage",
+            "transforms_test.json",
+            b"not json",
+            "transforms_test.json",
+        ),
+        (
+            "frame not a png",
+            "train/r_000.png",
+            b"GIF89a not a png",
+            "r_000.png",
+        ),
+        ("frame empty", "train/r_000.png", b"", "r_000.png"),
+        (
+            "frame truncated png",
+            "train/r_000.png",
+            b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR",
+            "r_000.png",
+        ),
+    ];
+    for (name, file, bytes, word) in file_edits {
+        let dir = c.dir("dnerf-file");
+        small_scene(&dir);
+        let target = if file.starts_with("train/") {
+            // The first training frame, whatever its name.
+            let v: serde_json::Value = serde_json::from_str(
+                &std::fs::read_to_string(dir.join("transforms_train.json")).expect("json"),
+            )
+            .expect("json");
+            dir.join(
+                v["frames"][0]["file_path"]
+                    .as_str()
+                    .expect("path")
+                    .to_string()
+                    + ".png",
+            )
+        } else {
+            dir.join(file)
+        };
+        let word = if file.starts_with("train/") {
+            target
+                .file_name()
+                .expect("name")
+                .to_string_lossy()
+                .into_owned()
+        } else {
+            (*word).to_string()
+        };
+        std::fs::write(&target, bytes).expect("write");
+        let o = dir.join("run");
+        c.add(
+            name,
+            &[&"train", &"--data", &dir, &"--out", &o, &"--config", &tiny],
+            &[word.as_str()],
+            &[&o],
+        );
+    }
+    {
+        let dir = c.dir("dnerf-size");
+        small_scene(&dir);
+        let v: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join("transforms_train.json")).expect("json"),
+        )
+        .expect("json");
+        let p = dir.join(
+            v["frames"][1]["file_path"]
+                .as_str()
+                .expect("path")
+                .to_string()
+                + ".png",
+        );
+        image::RgbaImage::new(37, 21).save(&p).expect("small frame");
+        let o = dir.join("run");
+        let name = p.file_name().expect("name").to_string_lossy().into_owned();
+        c.add(
+            "frame of another size",
+            &[&"train", &"--data", &dir, &"--out", &o, &"--config", &tiny],
+            &[name.as_str()],
+            &[&o],
+        );
+    }
+    let empty = c.dir("empty-folder");
+    let o = empty.join("run");
+    c.add(
+        "empty data folder",
+        &[
+            &"train",
+            &"--data",
+            &empty,
+            &"--out",
+            &o,
+            &"--config",
+            &tiny,
+        ],
+        &["transforms_train.json"],
+        &[&o],
+    );
+    let nowhere = root.join("no-such-scene");
+    c.add(
+        "missing data folder",
+        &[
+            &"train",
+            &"--data",
+            &nowhere,
+            &"--out",
+            &out,
+            &"--config",
+            &tiny,
+        ],
+        &["no-such-scene"],
+        &[&out],
+    );
+
+    // ---- point clouds (points3d.ply of an otherwise good scene)
+    let mut huge = ply_header("1");
+    huge.extend(ply_body(&[[1e30, 0.0, 0.0]]));
+    let mut nan = ply_header("2");
+    nan.extend(ply_body(&[[0.0, 0.0, 0.0], [f32::NAN, 0.0, 0.0]]));
+    let mut trailing = ply_header("1");
+    trailing.extend(ply_body(&[[0.0, 0.0, 0.0]]));
+    trailing.extend_from_slice(b"extra");
+    let mut short = ply_header("3");
+    short.extend(ply_body(&[[0.0, 0.0, 0.0]]));
+    let plys: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("ply four billion", ply_header("4000000000"), "points3d.ply"),
+        ("ply u64 max", ply_header("18446744073709551615"), "points3d.ply"),
+        ("ply negative count", ply_header("-3"), "points3d.ply"),
+        ("ply trailing bytes", trailing, "points3d.ply"),
+        ("ply truncated body", short, "points3d.ply"),
+        ("ply nan", nan, "points3d.ply"),
+        ("ply far point", huge, "points3d.ply"),
+        ("ply not a ply", b"solid cube\nfacet normal 0 0 1\n".to_vec(), "points3d.ply"),
+        ("ply no end header", b"ply\nformat ascii 1.0\nelement vertex 1\n".to_vec(), "points3d.ply"),
+        ("ply ascii extra column", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0 7\n".to_vec(), "points3d.ply"),
+        ("ply ascii missing column", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0\n".to_vec(), "points3d.ply"),
+        ("ply ascii text value", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 zero 0\n".to_vec(), "points3d.ply"),
+        ("ply no x", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float a\nproperty float y\nproperty float z\nend_header\n0 0 0\n".to_vec(), "points3d.ply"),
+        ("ply unknown format", b"ply\nformat binary_middle_endian 1.0\nelement vertex 0\nend_header\n".to_vec(), "points3d.ply"),
+        ("ply unknown type", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n0\n".to_vec(), "points3d.ply"),
+        ("ply empty file", Vec::new(), "points3d.ply"),
+    ];
+    for (name, bytes, word) in plys {
+        let dir = c.dir("ply");
+        small_scene(&dir);
+        std::fs::write(dir.join("points3d.ply"), bytes).expect("ply");
+        let o = dir.join("run");
+        c.add(
+            name,
+            &[&"train", &"--data", &dir, &"--out", &o, &"--config", &tiny],
+            &[word],
+            &[&o],
+        );
+    }
+
+    // ---- multi-view datasets
+    let mv_cases: Vec<(&str, FolderEdit, &str)> = vec![
+        (
+            "poses garbage",
+            Box::new(|d| std::fs::write(d.join("poses_bounds.npy"), b"garbage").expect("w")),
+            "poses_bounds.npy",
+        ),
+        (
+            "poses wrong width",
+            Box::new(|d| {
+                std::fs::write(d.join("poses_bounds.npy"), npy("(5, 16)", &[1.0; 80])).expect("w")
+            }),
+            "poses_bounds.npy",
+        ),
+        (
+            "poses wrong rows",
+            Box::new(|d| {
+                std::fs::write(d.join("poses_bounds.npy"), npy("(3, 17)", &[1.0; 51])).expect("w")
+            }),
+            "poses_bounds.npy",
+        ),
+        (
+            "poses nan",
+            Box::new(|d| {
+                let mut v = vec![0.0; 85];
+                v[0] = f64::NAN;
+                std::fs::write(d.join("poses_bounds.npy"), npy("(5, 17)", &v)).expect("w");
+            }),
+            "poses_bounds.npy",
+        ),
+        (
+            "poses truncated",
+            Box::new(|d| {
+                let b = std::fs::read(d.join("poses_bounds.npy")).expect("r");
+                std::fs::write(d.join("poses_bounds.npy"), &b[..b.len() - 9]).expect("w");
+            }),
+            "poses_bounds.npy",
+        ),
+        (
+            "a camera folder too few",
+            Box::new(|d| std::fs::remove_dir_all(d.join("cam00")).expect("rm")),
+            "camera folders",
+        ),
+        (
+            "no cam00",
+            Box::new(|d| {
+                std::fs::remove_dir_all(d.join("cam00")).expect("rm");
+                let b = std::fs::read(d.join("poses_bounds.npy")).expect("r");
+                let (header, body) = b.split_at(b.len() - 5 * 17 * 8);
+                let mut out = header.to_vec();
+                let at = out.windows(7).position(|w| w == b"(5, 17)").expect("shape");
+                out[at + 1] = b'4';
+                out.extend_from_slice(&body[17 * 8..]);
+                std::fs::write(d.join("poses_bounds.npy"), out).expect("w");
+            }),
+            "cam00",
+        ),
+        (
+            "missing frame",
+            Box::new(|d| std::fs::remove_file(d.join("cam02/images/0003.png")).expect("rm")),
+            "cam02",
+        ),
+        (
+            "frame count differs",
+            Box::new(|d| {
+                std::fs::copy(
+                    d.join("cam04/images/0000.png"),
+                    d.join("cam04/images/0099.png"),
+                )
+                .map(|_| ())
+                .expect("cp")
+            }),
+            "cam04",
+        ),
+        (
+            "frame size differs",
+            Box::new(|d| {
+                image::RgbImage::new(13, 7)
+                    .save(d.join("cam06/images/0002.png"))
+                    .expect("save")
+            }),
+            "0002.png",
+        ),
+        (
+            "frame not a png",
+            Box::new(|d| std::fs::write(d.join("cam08/images/0001.png"), b"nope").expect("w")),
+            "0001.png",
+        ),
+        (
+            "times file short",
+            Box::new(|d| std::fs::write(d.join("times.txt"), "0.0\n0.5\n").expect("w")),
+            "times.txt",
+        ),
+    ];
+    for (name, edit, word) in mv_cases {
+        let dir = c.dir("mv");
+        mv_scene(&dir);
+        edit(&dir);
+        let o = dir.join("run");
+        c.add(
+            name,
+            &[
+                &"train",
+                &"--data",
+                &dir,
+                &"--out",
+                &o,
+                &"--config",
+                &tiny,
+                &"--format",
+                &"n3dv",
+            ],
+            &[word],
+            &[&o],
+        );
+    }
+
+    // ---- checkpoints (a copy of the tiny run, damaged)
+    let good = std::fs::read(run.join("checkpoint.bin")).expect("checkpoint");
+    let mut flipped = good.clone();
+    flipped[0] ^= 0xff;
+    let nan_means = {
+        let mut a = Archive::from_bytes(&good).expect("archive");
+        let mut m = a.f32("canonical.means").expect("means").to_vec();
+        m[4] = f32::NAN;
+        a.put_f32("canonical.means", &m);
+        let p = root.join("nan.bin");
+        a.write(&p).expect("write");
+        std::fs::read(&p).expect("read")
+    };
+    let short_field = {
+        let mut a = Archive::from_bytes(&good).expect("archive");
+        let f = a.f32("field").expect("field").to_vec();
+        a.put_f32("field", &f[..f.len() / 2]);
+        let p = root.join("short.bin");
+        a.write(&p).expect("write");
+        std::fs::read(&p).expect("read")
+    };
+    let damaged: Vec<(&str, Vec<u8>)> = vec![
+        ("checkpoint empty", Vec::new()),
+        ("checkpoint half", good[..good.len() / 2].to_vec()),
+        ("checkpoint one byte short", good[..good.len() - 1].to_vec()),
+        ("checkpoint magic", flipped),
+        (
+            "checkpoint garbage",
+            b"definitely not a checkpoint".to_vec(),
+        ),
+        ("checkpoint nan means", nan_means),
+        ("checkpoint short field", short_field),
+    ];
+    for (name, bytes) in damaged {
+        let r = c.dir("ckpt");
+        common::copy_tree(&run, &r);
+        std::fs::write(r.join("checkpoint.bin"), &bytes).expect("damage");
+        let ply = r.join("x.ply");
+        let frames = r.join("frames");
+        c.add(
+            &format!("{name}: export"),
+            &[&"export", &"--run", &r, &"--time", &"0.5", &"--out", &ply],
+            &["checkpoint.bin"],
+            &[&ply],
+        );
+        c.add(
+            &format!("{name}: render"),
+            &[
+                &"render", &"--run", &r, &"--out", &frames, &"--times", &"0:1:2", &"--data", d,
+            ],
+            &["checkpoint.bin"],
+            &[&frames],
+        );
+        c.add(
+            &format!("{name}: eval"),
+            &[&"eval", &"--run", &r, &"--data", d],
+            &["checkpoint.bin"],
+            &[&r.join("metrics-test.json")],
+        );
+    }
+    {
+        let r = c.dir("no-ckpt");
+        let ply = r.join("x.ply");
+        c.add(
+            "run without checkpoint",
+            &[&"export", &"--run", &r, &"--time", &"0.5", &"--out", &ply],
+            &["checkpoint.bin"],
+            &[&ply],
+        );
+        let r2 = c.dir("resume-nothing");
+        c.add(
+            "resume nothing",
+            &[
+                &"train",
+                &"--data",
+                d,
+                &"--out",
+                &r2,
+                &"--config",
+                &tiny,
+                &"--resume",
+            ],
+            &["checkpoint.bin"],
+            &[&r2.join("config.toml")],
+        );
+        let r3 = c.dir("existing-run");
+        common::copy_tree(&run, &r3);
+        c.add(
+            "train over a run",
+            &[&"train", &"--data", d, &"--out", &r3, &"--config", &tiny],
+            &["--resume"],
+            &[],
+        );
+        let r4 = c.dir("bad-resume-config");
+        common::copy_tree(&run, &r4);
+        std::fs::write(r4.join("config.toml"), "[optim]\nposition_lr_init = nan\n").expect("cfg");
+        c.add(
+            "resume with a bad config",
+            &[&"train", &"--data", d, &"--out", &r4, &"--resume"],
+            &["config.toml", "position_lr_init"],
+            &[],
+        );
+        let r5 = c.dir("no-data-ref");
+        common::copy_tree(&run, &r5);
+        std::fs::remove_file(r5.join("data.txt")).expect("rm");
+        let frames = r5.join("frames");
+        c.add(
+            "render without data record",
+            &[
+                &"render", &"--run", &r5, &"--out", &frames, &"--times", &"0:1:2",
+            ],
+            &["data.txt"],
+            &[&frames],
+        );
+    }
+    {
+        let x = c.dir("export-dir");
+        let into_dir = x.join("missing-folder").join("x.ply");
+        c.add(
+            "export into a missing folder",
+            &[
+                &"export", &"--run", &run, &"--time", &"0.5", &"--out", &into_dir,
+            ],
+            &["x.ply"],
+            &[&into_dir],
+        );
+    }
+
+    // ---- reference files for verify
+    let v = c.dir("verify");
+    let files: &[(&str, &str, &str)] = &[
+        ("verify garbage", "a.json", "not json at all"),
+        ("verify unknown kind", "b.json", "{\"hello\": 1}"),
+        ("verify empty", "c.json", ""),
+        (
+            "verify ode malformed",
+            "d.json",
+            "{\"case\": {\"runs\": [{\"results\": 3}]}}",
+        ),
+    ];
+    for (name, file, text) in files {
+        let p = v.join(file);
+        std::fs::write(&p, text).expect("write");
+        c.add(name, &[&"verify", &p], &[file], &[]);
+    }
+    let missing = v.join("nothing.json");
+    c.add(
+        "verify missing file",
+        &[&"verify", &missing],
+        &["nothing.json"],
+        &[],
+    );
+}
+
+#[test]
+fn every_bad_input_gets_one_clear_error_and_leaves_nothing_behind() {
+    let root = common::scratch("hostile");
+    let mut cases = Cases::new(root.clone());
+    build(&mut cases);
+    let n = cases.list.len();
+    assert!(
+        n >= 100,
+        "the suite has {n} cases; it should have at least 100"
+    );
+    let failures: Vec<String> = std::thread::scope(|s| {
+        let chunks: Vec<&[Case]> = cases.list.chunks(n.div_ceil(2)).collect();
+        let handles: Vec<_> = chunks
+            .into_iter()
+            .map(|chunk| {
+                s.spawn(move || {
+                    chunk
+                        .iter()
+                        .filter_map(|c| check(c).err().map(|e| format!("{}: {e}", c.name)))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("worker"))
+            .collect()
+    });
+    assert!(
+        failures.is_empty(),
+        "{} of {n} bad inputs broke the contract:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+    std::fs::remove_dir_all(root).ok();
+}
