@@ -9,7 +9,6 @@
 //! | [`data`] | D-NeRF datasets (transforms JSON, RGBA PNGs, `points3d.ply`), PNG/GIF, PLY tables |
 //! | [`field`] | the HexPlane encoder and the velocity MLP: [`field::NeuralField`], batched, with an exact VJP; it is an `evogs_ode::VectorField` over all Gaussians |
 //! | [`model`] | canonical Gaussians, waypoint anchors, velocity/deformation/static dynamics: the Gaussians at any time and the way back (discrete adjoint) |
-//! | [`motion`] | the spin search: bodies in the learnt motion, a global scan of their spin rates |
 //! | [`train`] | one step's loss and exact gradient, Adam with the EvoGS schedules, densification, the training loop |
 //! | [`run`] | checkpoints (bit-for-bit resumable) |
 //! | [`atomic`] | every output file written under a temporary name and renamed when complete |
@@ -37,7 +36,6 @@ pub mod data;
 pub mod eval;
 pub mod field;
 pub mod model;
-pub mod motion;
 pub mod run;
 pub mod train;
 pub mod verify;

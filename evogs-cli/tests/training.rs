@@ -185,6 +185,39 @@ fn checkpoints_refuse_non_finite_values_both_ways() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// A checkpoint written while the motion searches existed (an `orbit_bodies` array, search
+/// tables in its stored configuration) still loads and resumes: both are ignored.
+#[test]
+fn checkpoints_written_with_the_removed_searches_still_resume() {
+    let mut c = tiny_config();
+    c.schedule.iterations = 3;
+    c.schedule.warmup_iters = 3;
+    c.schedule.curriculum_iters = 0;
+    let mut t = trainer(c);
+    t.step().expect("step");
+    let dir = std::env::temp_dir().join(format!("evogs-old-ckpt-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let ck = dir.join("checkpoint.bin");
+    checkpoint::save(&t, &ck).expect("save");
+    let mut ar = evogs_cli::run::archive::Archive::read(&ck).expect("archive");
+    let cfg = ar.meta["config"]
+        .as_str()
+        .expect("stored config")
+        .to_string();
+    ar.meta["config"] =
+        format!("{cfg}\n[spin_search]\nat_iter = 2000\n\n[orbit_search]\nat_iter = 2\n").into();
+    ar.put_u64("orbit_bodies", &[0.45f64, 0.4, 0.05, 0.2].map(f64::to_bits));
+    ar.write(&ck).expect("write");
+    let back = checkpoint::resume(&ck, t.views.clone()).expect("an old checkpoint resumes");
+    assert_eq!(back.cfg, t.cfg, "configuration without the search tables");
+    assert_eq!(
+        (back.iteration, &back.model.canonical),
+        (t.iteration, &t.model.canonical),
+        "same run"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
 /// The densification window is `from_iter ≤ it < until_iter` (3DGS): no densification and
 /// no opacity reset at `until_iter` itself, which is often the last iteration (a reset there
 /// would leave every Gaussian at opacity 0.01 in the saved model).
@@ -294,134 +327,5 @@ fn curriculum_window_grows_and_initialises_anchors_on_arrival() {
     assert!(
         gap > 0.0 && closed < 1e-12,
         "anchor gap {gap:e} → {closed:e}"
-    );
-}
-
-/// Trains `t` to the end, running `search` whenever `due` says so. Returns the iterations
-/// it ran after and its last result, and checks that the model stayed finite.
-fn train_with_search<R: Default>(
-    mut t: Trainer,
-    due: fn(&Trainer) -> bool,
-    search: fn(&mut Trainer) -> R,
-) -> (Vec<u64>, R) {
-    let (mut at, mut result) = (Vec::new(), R::default());
-    while !t.finished() {
-        if due(&t) {
-            at.push(t.iteration);
-            result = search(&mut t);
-        }
-        t.step().expect("finite step after the search");
-    }
-    assert!(
-        t.model.field.params().iter().all(|v| v.is_finite()),
-        "finite field"
-    );
-    assert!(
-        t.model
-            .anchors
-            .iter()
-            .all(|a| a.means.iter().all(|m| m.is_finite())),
-        "finite anchors"
-    );
-    let mut flat = Vec::new();
-    t.model.canonical.write_flat(&mut flat);
-    assert!(flat.iter().all(|v| v.is_finite()), "finite canonical");
-    (at, result)
-}
-
-/// The tiny run with a spin search after iteration 70 that finds bodies in its small motion.
-fn spin_search_config() -> TrainConfig {
-    let mut c = tiny_config();
-    c.spin_search.at_iter = 70;
-    // The tiny run's motion is small: a low threshold and small bodies let it find some.
-    c.spin_search.move_threshold = 1e-4;
-    c.spin_search.min_body = 25;
-    c.spin_search.view_stride = 8;
-    c.spin_search.fine_step = 0.0;
-    c.spin_search.min_spin = 0.0;
-    c.spin_search.max_radius = 10.0;
-    c.spin_search.multipliers = vec![0.0, 1.0, 2.0];
-    c.spin_search.fit_iters = 20;
-    // A refit of each searched body's shape, spin and path, written back into the model.
-    c.spin_search.refit_iters = 5;
-    c
-}
-
-#[test]
-fn the_spin_search_is_due_once_and_leaves_a_trainable_model() {
-    let (due, chosen) = train_with_search(
-        trainer(spin_search_config()),
-        Trainer::spin_search_due,
-        |t| t.spin_search(&mut |_| {}),
-    );
-    assert_eq!(due, vec![70], "due exactly once, after iteration 70");
-    assert!(
-        chosen.iter().any(Option::is_some),
-        "at least one body searched: {chosen:?}"
-    );
-}
-
-#[test]
-fn the_spin_search_leaves_the_orbit_search_s_bodies_alone() {
-    // Every body lies inside an orbit body as large as the scene: none is searched.
-    let (_, (chosen, left)) = train_with_search(
-        trainer(spin_search_config()),
-        Trainer::spin_search_due,
-        |t| {
-            t.orbit_bodies = vec![([0.0; 3], 1e9)];
-            let mut left = 0;
-            let chosen =
-                t.spin_search(&mut |m| left += usize::from(m.contains("left to its orbit")));
-            (chosen, left)
-        },
-    );
-    assert!(left > 0, "bodies were found and left alone");
-    assert!(chosen.is_empty(), "no body searched: {chosen:?}");
-}
-
-#[test]
-fn the_orbit_search_is_due_once_and_leaves_a_trainable_model() {
-    let mut c = tiny_config();
-    c.orbit_search.at_iter = 50;
-    // The tiny scene's groups, whatever they are: coarse links, every radius, a small grid,
-    // and any gain taken, so that the field fit runs.
-    c.orbit_search.link = 0.2;
-    c.orbit_search.min_body = 5;
-    c.orbit_search.centre_min_body = 5;
-    c.orbit_search.max_radius = 10.0;
-    c.orbit_search.centre_max_radius = 20.0;
-    c.orbit_search.max_orbit_radius = 20.0;
-    c.orbit_search.max_speed = 1.0;
-    c.orbit_search.speed_step = 0.5;
-    c.orbit_search.horizons = vec![0.3, 1.0];
-    c.orbit_search.local_steps = 1;
-    c.orbit_search.max_spin = 1.0;
-    c.orbit_search.spin_step = 1.0;
-    c.orbit_search.polish_rounds = 2;
-    // Refits of the body's canonical Gaussians with its spin and orbit, which write them
-    // back into the model.
-    c.orbit_search.refit_iters = 5;
-    c.orbit_search.refit_candidates = 2;
-    c.orbit_search.final_refit_iters = 5;
-    c.orbit_search.view_stride = 8;
-    c.orbit_search.min_gain = f64::NEG_INFINITY;
-    c.orbit_search.fit_iters = 20;
-    let (due, found) = train_with_search(trainer(c), Trainer::orbit_search_due, |t| {
-        let found = t.orbit_search(&mut |_| {});
-        // The bodies it moved are recorded for the spin search, and kept by a checkpoint.
-        assert_eq!(t.orbit_bodies.len(), found.len(), "orbit bodies recorded");
-        let path = std::env::temp_dir().join(format!("evogs-orbit-{}.bin", std::process::id()));
-        checkpoint::save(t, &path).expect("save");
-        let back = checkpoint::resume(&path, t.views.clone()).expect("resume");
-        let _ = std::fs::remove_file(&path);
-        assert_eq!(back.orbit_bodies, t.orbit_bodies, "orbit bodies round-trip");
-        found
-    });
-    assert_eq!(due, vec![50], "due exactly once, after iteration 50");
-    assert!(!found.is_empty(), "at least one orbit taken");
-    assert!(
-        found
-            .iter()
-            .all(|f| f.orbit.omega.is_finite() && f.orbit.spin.is_finite())
     );
 }

@@ -12,7 +12,6 @@
 //! | all Gaussians | [`preprocess`] → [`Preprocessed`] | [`preprocess_vjp`] |
 //! | compositing | [`rasterize_ref`] (dense, obviously correct), [`rasterize_tiled`] (16×16 tiles) | [`rasterize_ref_vjp`], [`rasterize_tiled_vjp`] |
 //! | whole chain | [`render`], [`render_tiled`] | [`render_vjp`], [`render_tiled_vjp`] |
-//! | part of an image | [`window`]: the tiles of a tile-aligned window, as in the full image | [`render_tiled_vjp`] on the window's render |
 //! | losses, metrics | [`loss`] (L1, L2, 3DGS loss), [`ssim`] (3DGS SSIM, D-SSIM), [`metrics`] (PSNR) | the `*_vjp` beside each |
 //!
 //! Conventions: Gaussians are stored in their raw training parameterisation ([`Splats`]:
@@ -69,7 +68,6 @@ pub mod ssim;
 #[cfg(feature = "proptest")]
 pub mod strategies;
 pub mod tile_lanes;
-pub mod window;
 
 pub use binning::{Binning, Rect, TILE_SIZE, TileGrid};
 pub use camera::{CameraError, CameraGrad, PinholeCamera};
@@ -90,4 +88,3 @@ pub use render::{
     Render, RenderGrad, render, render_tiled, render_tiled_into, render_tiled_vjp,
     render_tiled_vjp_into, render_vjp,
 };
-pub use window::{Window, render_window_into};

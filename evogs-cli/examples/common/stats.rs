@@ -1,4 +1,4 @@
-//! Small statistics shared by the diagnostic examples.
+//! Small statistics for the diagnostic examples (`step_check`).
 
 /// The value below which a fraction `q` of the sorted values lie (the nearest rank; NaN for
 /// an empty list).

@@ -1,6 +1,6 @@
 //! The spinning cube of the `toys` scene (`toys/meta.json`, copied in
-//! `tools/data/toys-meta.json`), shared by the diagnostic examples: it turns about `AXIS`
-//! through `CENTRE` at one revolution per unit time, `R(t) = Rot(AXIS, 2πt)·Rot([1, 1, 0], TILT)`.
+//! `tools/data/toys-meta.json`), for the `field_fit` example: it turns about `AXIS` through
+//! `CENTRE` at one revolution per unit time, `R(t) = Rot(AXIS, 2πt)·Rot([1, 1, 0], TILT)`.
 
 use evogs_math::Vec3;
 

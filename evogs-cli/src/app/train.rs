@@ -310,22 +310,10 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         Trainer::new(cfg.clone(), views, pts).map_err(CommandError::from_display)?
     };
     t.cfg.schedule.iterations = cfg.schedule.iterations;
-    // Like the iteration count, the spin and orbit searches are read from RUN/config.toml on
-    // resume, so a stored run can be given one.
-    t.cfg.spin_search = cfg.spin_search.clone();
-    t.cfg.orbit_search = cfg.orbit_search.clone();
     rep.start("train", t.cfg.schedule.iterations);
     rep.progress(t.iteration, "");
     let mut last_save = std::time::Instant::now();
     while !t.finished() {
-        if t.orbit_search_due() {
-            rep.info(&format!("iteration {}: orbit search", t.iteration));
-            t.orbit_search(&mut |m| rep.info(m));
-        }
-        if t.spin_search_due() {
-            rep.info(&format!("iteration {}: spin search", t.iteration));
-            t.spin_search(&mut |m| rep.info(m));
-        }
         let r = t.step().map_err(CommandError::from_display)?;
         if r.dynamics_started {
             rep.info(&format!(

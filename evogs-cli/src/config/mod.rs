@@ -7,7 +7,6 @@
 use crate::data::DataFormat;
 use crate::field::{HexPlaneConfig, NeuralFieldConfig};
 use crate::model::{Motion, Waypoints};
-use crate::motion::{OrbitSearchConfig, SpinSearchConfig};
 use serde::{Deserialize, Serialize};
 
 mod sections;
@@ -40,11 +39,12 @@ pub struct TrainConfig {
     pub densify: DensifyConfig,
     /// Iteration counts and periodic tasks.
     pub schedule: ScheduleConfig,
-    /// The spin search (off unless `at_iter` is set; see [`crate::motion`]).
-    pub spin_search: SpinSearchConfig,
-    /// The orbit search (off unless `at_iter` is set; see [`crate::motion::orbit`]).
-    pub orbit_search: OrbitSearchConfig,
 }
+
+/// Top-level tables of the motion searches, which were removed: stored run configurations
+/// may still hold them ([`TrainConfig::from_run_toml`] drops them), a configuration file given
+/// to a new run may not ([`TrainConfig::merge_toml`] names them).
+const REMOVED_SECTIONS: [&str; 2] = ["spin_search", "orbit_search"];
 
 impl TrainConfig {
     /// The `fast` preset: sized so the shipped 200×200 scene trains in about ten minutes
@@ -191,8 +191,6 @@ impl TrainConfig {
                 curriculum_focus: 0.0,
                 views_per_step: 1,
             },
-            spin_search: SpinSearchConfig::default(),
-            orbit_search: OrbitSearchConfig::default(),
         }
     }
 
@@ -211,10 +209,20 @@ impl TrainConfig {
     /// Overlays a TOML document (any subset of the fields) onto this configuration.
     ///
     /// # Errors
-    /// Malformed TOML, unknown keys or wrongly typed values.
+    /// Malformed TOML, unknown keys (a removed motion-search table by its own message) or
+    /// wrongly typed values.
     pub fn merge_toml(&self, text: &str) -> Result<Self, String> {
-        let mut base = toml::Value::try_from(self).map_err(|e| e.to_string())?;
         let over: toml::Value = toml::from_str(text).map_err(|e| toml_error_line(text, &e))?;
+        if let Some(name) = REMOVED_SECTIONS.iter().find(|&&k| over.get(k).is_some()) {
+            return Err(format!(
+                "[{name}]: the motion searches were removed from evogs; delete the table"
+            ));
+        }
+        self.merge_value(over)
+    }
+
+    fn merge_value(&self, over: toml::Value) -> Result<Self, String> {
+        let mut base = toml::Value::try_from(self).map_err(|e| e.to_string())?;
         merge(&mut base, over);
         serde_path_to_error::deserialize(base).map_err(|e| {
             let msg = e.inner().message().trim().to_string();
@@ -224,7 +232,10 @@ impl TrainConfig {
 
     /// A stored run configuration (`RUN/config.toml`, a checkpoint's copy). Read over `fast`
     /// with the temporal curriculum off, so runs written before the curriculum existed keep
-    /// training as they did when resumed; validated like any other configuration.
+    /// training as they did when resumed; validated like any other configuration. The tables
+    /// of the removed motion searches, which runs written while they existed hold, are
+    /// ignored: a search that had run left its result in the model, one still pending does
+    /// not run.
     ///
     /// # Errors
     /// As [`merge_toml`](Self::merge_toml) and [`validate`](Self::validate).
@@ -233,7 +244,13 @@ impl TrainConfig {
         base.schedule.warmup_time_window = 1.0;
         base.schedule.curriculum_iters = 0;
         base.schedule.curriculum_focus = 0.0;
-        let cfg = base.merge_toml(text)?;
+        let mut over: toml::Value = toml::from_str(text).map_err(|e| e.to_string())?;
+        if let Some(table) = over.as_table_mut() {
+            for name in REMOVED_SECTIONS {
+                table.remove(name);
+            }
+        }
+        let cfg = base.merge_value(over)?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -325,9 +342,7 @@ impl TrainConfig {
         chk(
             (0.0..=1.0).contains(&self.loss.lambda_ssim),
             "loss.lambda_ssim must be in [0, 1]",
-        )?;
-        self.spin_search.validate()?;
-        self.orbit_search.validate()
+        )
     }
 
     /// Every real-valued setting is finite and in its range: rates and loss weights are
@@ -467,25 +482,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_shipped_configs_read_over_the_fast_preset_and_validate() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs");
-        let mut n = 0;
-        for entry in std::fs::read_dir(&dir).expect("configs/") {
-            let path = entry.expect("entry").path();
-            if path.extension().is_some_and(|e| e == "toml") {
-                let text = std::fs::read_to_string(&path).expect("readable");
-                let c = TrainConfig::fast()
-                    .merge_toml(&text)
-                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-                c.validate()
-                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-                n += 1;
-            }
-        }
-        assert!(n > 0, "no config in {}", dir.display());
-    }
-
-    #[test]
     fn toml_round_trip_and_partial_overlay() {
         let c = TrainConfig::fast();
         assert_eq!(
@@ -609,5 +605,20 @@ mod tests {
             now,
             "a current run's configuration round-trips"
         );
+    }
+
+    #[test]
+    fn removed_search_tables_are_ignored_in_runs_and_named_in_config_files() {
+        let now = TrainConfig::fast();
+        for name in REMOVED_SECTIONS {
+            let text = format!("{}\n[{name}]\nat_iter = 400\nlink = 0.06\n", now.to_toml());
+            let old = TrainConfig::from_run_toml(&text).expect("an old run reads");
+            assert_eq!(old, now, "[{name}] ignored in a stored run");
+            let e = now.merge_toml(&text).expect_err("a config file with it");
+            assert!(
+                e.contains(&format!("[{name}]")) && e.contains("removed"),
+                "the error names [{name}]: {e}"
+            );
+        }
     }
 }

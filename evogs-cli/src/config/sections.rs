@@ -1,6 +1,5 @@
 //! The sections of [`TrainConfig`](super::TrainConfig): data, initial Gaussians, dynamics,
-//! losses, optimiser, densification and schedule (the field's and the searches' own are
-//! beside their code).
+//! losses, optimiser, densification and schedule (the field's own is beside its code).
 
 use crate::data::DataFormat;
 use crate::model::{Motion, Waypoints};

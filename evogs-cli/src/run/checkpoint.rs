@@ -19,6 +19,13 @@ use serde_json::json;
 use std::path::Path;
 
 /// Checkpoint format version.
+///
+/// Still 1 after the motion searches were removed: checkpoints written while they existed may
+/// also hold an `orbit_bodies` array (the bodies the orbit search had moved, read only by the
+/// spin search), which is ignored, and their stored configuration's `[spin_search]` and
+/// `[orbit_search]` tables are dropped by [`TrainConfig::from_run_toml`]. Every other array and
+/// field is as before, so such checkpoints load, evaluate, render, export and resume as
+/// before (without any search still pending in them), and older builds read the new ones.
 const VERSION: u64 = 1;
 
 /// Why a checkpoint could not be used.
@@ -129,13 +136,6 @@ pub fn save(t: &Trainer, path: &Path) -> Result<(), CheckpointError> {
     ar.put_u64(
         "order",
         &t.order.iter().map(|&v| v as u64).collect::<Vec<_>>(),
-    );
-    ar.put_u64(
-        "orbit_bodies",
-        &t.orbit_bodies
-            .iter()
-            .flat_map(|(c, r)| [c[0], c[1], c[2], *r].map(f64::to_bits))
-            .collect::<Vec<_>>(),
     );
     if let Some((name, i)) = ar.first_non_finite() {
         return Err(CheckpointError::Invalid {
@@ -350,16 +350,6 @@ pub fn resume(path: &Path, views: impl Into<TrainViews>) -> Result<Trainer, Chec
         .collect();
     t.order_pos = usize::try_from(meta["order_pos"].as_u64().unwrap_or(0)).unwrap_or(0);
     t.log = serde_json::from_value::<Vec<LogRow>>(meta["log"].clone()).unwrap_or_default();
-    // Bit patterns, so that they come back exactly (serde_json's float parser may not).
-    t.orbit_bodies = ar
-        .u64("orbit_bodies")
-        .unwrap_or_default()
-        .chunks_exact(4)
-        .map(|b| {
-            let f = |k: usize| f64::from_bits(b[k]);
-            ([f(0), f(1), f(2)], f(3))
-        })
-        .collect();
     t.stats = DensifyStats {
         accum: ar.f32("stats.accum").unwrap_or_default().to_vec(),
         count: ar

@@ -92,17 +92,6 @@ impl TrainViews {
         self.frames.prefetch(upcoming);
     }
 
-    /// Every `stride`-th view with its image (the motion searches' views). They are held
-    /// together, outside the cache's budget.
-    ///
-    /// # Errors
-    /// A frame could not be decoded.
-    pub fn every(&self, stride: usize) -> Result<Vec<ViewData<f32>>, String> {
-        let picks: Vec<usize> = (0..self.len()).step_by(stride.max(1)).collect();
-        self.prefetch(&picks);
-        picks.into_iter().map(|i| self.view(i)).collect()
-    }
-
     /// The smallest and largest time.
     #[must_use]
     pub fn time_range(&self) -> (f64, f64) {

@@ -120,9 +120,6 @@ pub struct Trainer {
     pub train_seconds: f64,
     /// Log rows so far.
     pub log: Vec<LogRow>,
-    /// The bodies the orbit search moved: canonical centroid and radius (the spin search
-    /// leaves them alone).
-    pub orbit_bodies: Vec<([f64; 3], f64)>,
     /// Densification accumulators.
     pub stats: DensifyStats,
     /// Random state (view order, coherence samples, split offsets).
@@ -216,7 +213,6 @@ impl Trainer {
             iteration: 0,
             train_seconds: 0.0,
             log: Vec::new(),
-            orbit_bodies: Vec::new(),
             stats: DensifyStats::new(n),
             rng,
             order: Vec::new(),
