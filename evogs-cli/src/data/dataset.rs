@@ -66,14 +66,6 @@ pub enum DataError {
         /// What it should have been.
         what: &'static str,
     },
-    /// The JSON does not parse or lacks a field.
-    #[error("{path}: malformed JSON: {msg}")]
-    Json {
-        /// File.
-        path: String,
-        /// Parser message.
-        msg: String,
-    },
     /// A value is invalid.
     #[error("{path}: {msg}")]
     Invalid {
