@@ -67,6 +67,7 @@ pub mod render;
 pub mod ssim;
 #[cfg(feature = "proptest")]
 pub mod strategies;
+mod sum;
 pub mod tile_lanes;
 
 pub use binning::{Binning, Rect, TILE_SIZE, TileGrid};

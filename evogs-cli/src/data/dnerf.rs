@@ -7,7 +7,8 @@
 //! Images are composited onto a background (white by default) and optionally box-downscaled.
 //! Every problem is reported as one line naming the file ([`DataError`]); nothing panics.
 
-use super::dataset::{DataError, Dataset, LoadOptions, SplitName, View, optional_point_cloud};
+use super::dataset::{Dataset, LoadOptions, SplitName, View, optional_point_cloud};
+use super::error::DataError;
 use super::format::DataFormat;
 use evogs_splat::{Image, PinholeCamera};
 use serde::Deserialize;

@@ -47,9 +47,8 @@
 //! Only image headers are read unless [`LoadOptions::load_images`] is set, so every frame
 //! is checked before training starts without decoding a capture larger than memory.
 
-use super::dataset::{
-    DataError, Dataset, LoadOptions, RigCamera, View, decode_views, optional_point_cloud,
-};
+use super::dataset::{Dataset, LoadOptions, RigCamera, View, decode_views, optional_point_cloud};
+use super::error::DataError;
 use super::format::DataFormat;
 use super::image_io::FrameDecode;
 use super::npy::NpyMatrix;

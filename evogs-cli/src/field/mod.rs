@@ -7,6 +7,7 @@ pub mod mlp;
 pub mod neural;
 pub mod regularize;
 
+pub use chunk::CHUNK;
 pub use gemm::Gemm;
 pub use hexplane::{HexPlane, HexPlaneConfig, TimeMapping};
 pub use mlp::Mlp;
