@@ -11,7 +11,7 @@ use evogs_cli::app::study::{StudyArgs, StudyProtocol, parse_motions, run_study};
 use evogs_cli::app::train::{TrainArgs, train};
 use evogs_cli::check::grad::check_grad;
 use evogs_cli::check::order::{Expect, check_order};
-use evogs_cli::config::Protocol;
+use evogs_cli::config::{Preset, Protocol};
 use evogs_cli::data::{DataFormat, SplitName};
 use evogs_cli::model::Motion;
 use evogs_cli::verify::{LEGEND, verify_file};
@@ -48,7 +48,7 @@ enum Cmd {
         config: Option<PathBuf>,
         /// Preset: fast (default, sized for 2 CPU cores) or paper (method.md's numbers).
         #[arg(long)]
-        preset: Option<String>,
+        preset: Option<Preset>,
         /// Dynamics: velocity (EvoGS, default), deformation (4DGS-style) or static (3DGS).
         #[arg(long)]
         motion: Option<Motion>,
@@ -97,7 +97,7 @@ enum Cmd {
         motions: String,
         /// Preset of every run: fast (default) or paper.
         #[arg(long)]
-        preset: Option<String>,
+        preset: Option<Preset>,
         /// TOML file overlaid on the preset for every run.
         #[arg(long)]
         config: Option<PathBuf>,

@@ -259,13 +259,6 @@ fn bad_input_is_refused_before_any_training() {
             },
             "cannot be written",
         ),
-        (
-            StudyArgs {
-                preset: Some("huge".into()),
-                ..args(&out, &cfg)
-            },
-            "huge",
-        ),
     ];
     for (a, why) in cases {
         let e = run_study(&a, &mut Silent).expect_err(why).to_string();

@@ -6,7 +6,7 @@ use super::load::load_dataset;
 use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
 use super::{Reporter, interrupt, plot};
-use crate::config::{Protocol, ScheduleConfig, TrainConfig};
+use crate::config::{Preset, Protocol, ScheduleConfig, TrainConfig};
 use crate::data::{DataFormat, Dataset, SplitName};
 use crate::eval::{SplitMetrics, evaluate};
 use crate::model::Motion;
@@ -26,7 +26,7 @@ pub struct TrainArgs {
     /// Configuration file overlaid on the preset.
     pub config: Option<PathBuf>,
     /// Preset (`fast` by default, or `paper`).
-    pub preset: Option<String>,
+    pub preset: Option<Preset>,
     /// Motion override.
     pub motion: Option<Motion>,
     /// Protocol override.
@@ -71,8 +71,7 @@ pub struct TrainOutcome {
 /// # Errors
 /// Unknown preset, unreadable or invalid file, invalid values.
 pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig, CommandError> {
-    let mut cfg =
-        TrainConfig::preset(args.preset.as_deref().unwrap_or("fast")).map_err(CommandError)?;
+    let mut cfg = TrainConfig::from_preset(args.preset.unwrap_or_default());
     if let Some(p) = &args.config {
         let text = std::fs::read_to_string(p)
             .map_err(|e| CommandError(format!("{}: cannot read: {e}", p.display())))?;

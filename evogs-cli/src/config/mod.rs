@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 
 mod sections;
 pub use sections::{
-    DataConfig, DensifyConfig, DynamicsConfig, InitConfig, LossConfig, OptimConfig, Protocol,
-    ScheduleConfig,
+    DataConfig, DensifyConfig, DynamicsConfig, InitConfig, LossConfig, OptimConfig, Preset,
+    Protocol, ScheduleConfig, TimeCoordinate,
 };
 
 /// Everything a training run needs to know.
@@ -20,7 +20,7 @@ pub use sections::{
 #[serde(deny_unknown_fields)]
 pub struct TrainConfig {
     /// Preset this configuration started from (`fast` or `paper`).
-    pub preset: String,
+    pub preset: Preset,
     /// Random seed (initialisation, view order, densification noise).
     pub seed: u64,
     /// Data loading and the training protocol.
@@ -56,7 +56,7 @@ impl TrainConfig {
     #[must_use]
     pub fn fast() -> Self {
         let mut c = Self::paper();
-        c.preset = "fast".into();
+        c.preset = Preset::Fast;
         c.field = NeuralFieldConfig {
             hexplane: HexPlaneConfig {
                 channels: 16,
@@ -103,7 +103,7 @@ impl TrainConfig {
     #[must_use]
     pub fn paper() -> Self {
         Self {
-            preset: "paper".into(),
+            preset: Preset::Paper,
             seed: 0,
             data: DataConfig {
                 background: [1.0; 3],
@@ -126,11 +126,11 @@ impl TrainConfig {
             },
             dynamics: DynamicsConfig {
                 motion: Motion::Velocity,
-                method: "rk4".into(),
+                method: evogs_ode::Method::Rk4,
                 step_fraction: 0.125,
                 waypoints: Waypoints::Trainable,
                 anchors: 3,
-                time_mapping: "normalized".into(),
+                time_mapping: TimeCoordinate::Normalized,
             },
             field: NeuralFieldConfig {
                 hexplane: HexPlaneConfig {
@@ -194,15 +194,12 @@ impl TrainConfig {
         }
     }
 
-    /// A preset by name.
-    ///
-    /// # Errors
-    /// An unknown name.
-    pub fn preset(name: &str) -> Result<Self, String> {
-        match name {
-            "fast" => Ok(Self::fast()),
-            "paper" => Ok(Self::paper()),
-            _ => Err(format!("unknown preset `{name}` (fast, paper)")),
+    /// A preset's configuration.
+    #[must_use]
+    pub fn from_preset(preset: Preset) -> Self {
+        match preset {
+            Preset::Fast => Self::fast(),
+            Preset::Paper => Self::paper(),
         }
     }
 
@@ -290,14 +287,6 @@ impl TrainConfig {
         chk(
             self.dynamics.anchors >= 1,
             "dynamics.anchors must be at least 1",
-        )?;
-        self.dynamics
-            .method
-            .parse::<evogs_ode::Method>()
-            .map_err(|e| format!("dynamics.method = `{}`: {e}", self.dynamics.method))?;
-        chk(
-            matches!(self.dynamics.time_mapping.as_str(), "normalized" | "raw"),
-            "dynamics.time_mapping must be `normalized` or `raw`",
         )?;
         chk(
             self.field.hexplane.resolution.iter().all(|&r| r >= 2),
@@ -493,8 +482,8 @@ mod tests {
             .merge_toml("seed = 9\n[dynamics]\nmethod = \"euler\"\n")
             .expect("overlay");
         assert_eq!(
-            (d.seed, d.dynamics.method.as_str()),
-            (9, "euler"),
+            (d.seed, d.dynamics.method),
+            (9, evogs_ode::Method::Euler),
             "overlaid fields"
         );
         assert_eq!(d.loss, c.loss, "other fields kept");
@@ -506,10 +495,17 @@ mod tests {
             TrainConfig::paper().validate().is_ok() && c.validate().is_ok(),
             "presets are valid"
         );
-        let bad = c
+        let e = c
             .merge_toml("[dynamics]\nmethod = \"rk5\"\n")
-            .expect("parses");
-        assert!(bad.validate().is_err(), "unknown method rejected");
+            .expect_err("unknown method rejected");
+        assert!(e.contains("dynamics.method") && e.contains("rk5"), "{e}");
+        let e = c
+            .merge_toml("[dynamics]\ntime_mapping = \"warped\"\n")
+            .expect_err("unknown time mapping rejected");
+        assert!(
+            e.contains("dynamics.time_mapping") && e.contains("warped"),
+            "{e}"
+        );
         let long = c
             .merge_toml("[schedule]\ncurriculum_iters = 2501\n")
             .expect("parses");

@@ -15,6 +15,7 @@ use super::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats,
     batch_loss_and_grad, render_options,
 };
+use crate::config::TimeCoordinate;
 use crate::config::TrainConfig;
 use crate::field::regularize::PlaneRegWeights;
 use crate::field::{NeuralField, TimeMapping};
@@ -23,7 +24,6 @@ use crate::model::init::{gaussians_from_points, random_points};
 use crate::model::{Model, ModelGrad, Motion, Waypoints};
 use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
-use evogs_ode::Method;
 use std::time::Instant;
 
 /// Slack on time comparisons of the curriculum window (times are read from JSON).
@@ -176,20 +176,15 @@ impl Trainer {
             lo[a] -= m;
             hi[a] += m;
         }
-        let time = if cfg.dynamics.time_mapping == "raw" {
-            TimeMapping::Raw
-        } else {
-            TimeMapping::Normalized {
+        let time = match cfg.dynamics.time_mapping {
+            TimeCoordinate::Raw => TimeMapping::Raw,
+            TimeCoordinate::Normalized => TimeMapping::Normalized {
                 t_min: t0,
                 t_max: t1,
-            }
+            },
         };
         let field = NeuralField::new(&cfg.field, lo, hi, time, cfg.seed ^ 0x5eed);
-        let method: Method = cfg
-            .dynamics
-            .method
-            .parse()
-            .map_err(|e| TrainError::Setup(format!("dynamics.method: {e}")))?;
+        let method = cfg.dynamics.method;
         let model = Model::new(
             canonical,
             field,

@@ -29,7 +29,7 @@ use super::load::load_dataset;
 use super::paths::shipped_scene;
 use super::plot::{BarGroup, save_bars};
 use super::train::{TrainArgs, resolve_config};
-use crate::config::TrainConfig;
+use crate::config::{Preset, TrainConfig};
 use crate::model::Motion;
 use progress::{ChannelReporter, Message, StudyProgress};
 use runner::{PlannedRun, RunState, execute, read_record, write_atomic};
@@ -49,7 +49,7 @@ pub struct StudyArgs {
     /// Motions, in column order.
     pub motions: Vec<Motion>,
     /// Preset (`fast` by default).
-    pub preset: Option<String>,
+    pub preset: Option<Preset>,
     /// Configuration file overlaid on the preset.
     pub config: Option<PathBuf>,
     /// Iterations per run (default: the preset's).
@@ -190,7 +190,7 @@ fn plan(
                     data: Some(data.to_path_buf()),
                     out: args.out.join(&folder),
                     config: args.config.clone(),
-                    preset: args.preset.clone(),
+                    preset: args.preset,
                     motion: Some(m),
                     iters: args.iters,
                     seed: Some(seed),
@@ -273,7 +273,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
     }
     let base = resolve_config(&TrainArgs {
         config: args.config.clone(),
-        preset: args.preset.clone(),
+        preset: args.preset,
         iters: args.iters,
         ..TrainArgs::default()
     })?;
@@ -343,7 +343,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
                 .unwrap_or_else(|_| data.clone())
                 .display()
                 .to_string(),
-            preset: base.preset.clone(),
+            preset: base.preset.to_string(),
             config_file: args.config.as_ref().map(|p| p.display().to_string()),
             config_hash: config_hash(&base.to_toml()),
             iterations: base.schedule.iterations,
