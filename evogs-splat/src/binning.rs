@@ -38,9 +38,6 @@ use evogs_math::{Real, Vec2};
 
 /// Tile side in pixels.
 pub const TILE_SIZE: usize = 16;
-/// Pixels per tile.
-pub const TILE_PIXELS: usize = TILE_SIZE * TILE_SIZE;
-
 /// The tiles of a `width × height` image (the last column and row of tiles may be partial).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TileGrid {

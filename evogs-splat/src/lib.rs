@@ -48,11 +48,11 @@ compile_error!(
 
 extern crate alloc;
 
-pub mod binning;
-pub mod camera;
-pub mod color;
-pub mod fast_exp;
-pub mod gaussians;
+mod binning;
+mod camera;
+mod color;
+mod fast_exp;
+mod gaussians;
 mod image;
 pub mod loss;
 pub mod metrics;
@@ -60,19 +60,19 @@ pub mod preprocess;
 pub mod project;
 pub mod project_vjp;
 pub mod raster_ref;
-pub mod raster_ref_vjp;
-pub mod raster_tiled;
-pub mod raster_tiled_vjp;
-pub mod render;
+mod raster_ref_vjp;
+mod raster_tiled;
+mod raster_tiled_vjp;
+mod render;
 pub mod ssim;
 #[cfg(feature = "proptest")]
 pub mod strategies;
 mod sum;
-pub mod tile_lanes;
+mod tile_lanes;
 
 pub use binning::{Binning, Rect, TILE_SIZE, TileGrid};
-pub use camera::{CameraError, CameraGrad, PinholeCamera};
-pub use color::{sh_color, sh_color_vjp};
+pub use camera::{CameraError, CameraGrad, DEFAULT_FAR, DEFAULT_NEAR, PinholeCamera};
+pub use color::{SH_OFFSET, sh_color, sh_color_vjp};
 pub use gaussians::{Splats, SplatsGrad, benchmark_scene, random_scene};
 pub use image::Image;
 pub use preprocess::{
