@@ -4,7 +4,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use evogs_cli::app::Reporter;
 use evogs_cli::app::evaluate::{evaluate_run, parse_range};
-use evogs_cli::app::export::export;
+use evogs_cli::app::export::{SEQUENCE_FILE, export, export_sequence};
 use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
 use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
 use evogs_cli::app::study::{StudyArgs, StudyProtocol, parse_motions, run_study};
@@ -187,15 +187,24 @@ enum Cmd {
     /// Check every VJP of the stack and the end-to-end training step against central
     /// differences in f64; print the worst errors per group.
     CheckGrad,
-    /// Export the Gaussians at time T as a standard 3DGS .ply.
+    /// Export the Gaussians at time T as a standard 3DGS .ply, or a sequence of them at
+    /// times A:B:N (a folder of .ply files and sequence.json).
     Export {
         /// Run folder.
         #[arg(long)]
         run: PathBuf,
-        /// Time (any, negative too).
+        /// One time (any, negative too): write the Gaussians at it into the `.ply` file --out.
+        #[arg(
+            long,
+            allow_hyphen_values = true,
+            required_unless_present = "times",
+            conflicts_with = "times"
+        )]
+        time: Option<f64>,
+        /// Times A:B:N: write N `.ply` files and `sequence.json` into the folder --out.
         #[arg(long, allow_hyphen_values = true)]
-        time: f64,
-        /// Output .ply file.
+        times: Option<String>,
+        /// Output `.ply` file (--time) or folder (--times).
         #[arg(long)]
         out: PathBuf,
     },
@@ -502,10 +511,29 @@ fn run(cli: Cli) -> Result<()> {
                 println!("gif: {}", g.display());
             }
         }
-        Cmd::Export { run, time, out } => {
-            let n = export(&run, time, &out)?;
-            println!("{n} Gaussians at t = {time} -> {}", out.display());
-        }
+        Cmd::Export {
+            run,
+            time,
+            times,
+            out,
+        } => match (time, times) {
+            (Some(t), _) => {
+                let n = export(&run, t, &out)?;
+                println!("{n} Gaussians at t = {t} -> {}", out.display());
+            }
+            (None, Some(spec)) => {
+                let times = parse_times(&spec).map_err(|e| anyhow::anyhow!("--times: {e}"))?;
+                let seq = export_sequence(&run, times, &out, &mut term)?;
+                println!(
+                    "{} files of {} Gaussians -> {} ({})",
+                    seq.files.len(),
+                    seq.gaussians,
+                    out.display(),
+                    SEQUENCE_FILE
+                );
+            }
+            (None, None) => anyhow::bail!("export needs --time T or --times A:B:N"),
+        },
         Cmd::CheckOrder { stepper, problem } => {
             let results = check_order(stepper, problem.as_deref())?;
             for r in &results {
@@ -649,7 +677,7 @@ mod tests {
         let Cmd::Export { time, .. } = parse("export --run r --time -0.5 --out o.ply") else {
             panic!("not export")
         };
-        assert!((time + 0.5).abs() < 1e-12, "parsed {time}");
+        assert_eq!(time, Some(-0.5), "parsed");
         let Cmd::Eval { time_range, .. } = parse("eval --run r --time-range -1:0.5") else {
             panic!("not eval")
         };

@@ -313,6 +313,37 @@ fn build(c: &mut Cases) {
             &[&ply_out],
         );
     }
+    let seq_out = root.join("never-sequence");
+    c.add(
+        "export time and times",
+        &[
+            &"export", &"--run", &run, &"--time", &"0.5", &"--times", &"0:1:2", &"--out", &seq_out,
+        ],
+        &["--time"],
+        &[&seq_out],
+    );
+    c.add(
+        "export neither time",
+        &[&"export", &"--run", &run, &"--out", &seq_out],
+        &["--time"],
+        &[&seq_out],
+    );
+    c.add(
+        "export times far",
+        &[
+            &"export", &"--run", &run, &"--times", &"0:1e9:2", &"--out", &seq_out,
+        ],
+        &["--times"],
+        &[&seq_out],
+    );
+    c.add(
+        "export times zero",
+        &[
+            &"export", &"--run", &run, &"--times", &"0:1:0", &"--out", &seq_out,
+        ],
+        &["--times"],
+        &[&seq_out],
+    );
     let frames_out = root.join("never-frames");
     for (name, spec, word) in [
         ("times two parts", "0:1", "0:1"),

@@ -14,6 +14,7 @@
 pub mod anchors;
 pub mod dynamics;
 pub mod init;
+pub mod retain;
 
 pub use anchors::{AnchorState, Waypoints, anchor_for_time};
 pub use dynamics::FrameTape;

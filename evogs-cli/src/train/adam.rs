@@ -6,6 +6,8 @@
 //! Each parameter group keeps its own step count, so groups created later (anchors when the
 //! dynamics start) start their bias correction at 1.
 
+use crate::model::retain::retain_items;
+
 /// Adam moments of one parameter group.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct AdamState {
@@ -132,20 +134,6 @@ impl AdamState {
         self.m.fill(0.0);
         self.v.fill(0.0);
     }
-}
-
-/// Keeps the `stride`-sized items of `data` whose flag in `keep` is true, in order.
-pub fn retain_items<T: Copy>(data: &mut Vec<T>, keep: &[bool], stride: usize) {
-    let mut w = 0;
-    for (i, &k) in keep.iter().enumerate() {
-        if k {
-            if w != i {
-                data.copy_within(i * stride..(i + 1) * stride, w * stride);
-            }
-            w += 1;
-        }
-    }
-    data.truncate(w * stride);
 }
 
 /// The exponential schedule `lr(step) = exp((1 − u) ln lr_init + u ln lr_final)`,
