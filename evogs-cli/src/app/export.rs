@@ -93,7 +93,7 @@ pub struct Sequence {
 pub const SEQUENCE_FILE: &str = "sequence.json";
 
 /// Runs `evogs export --times A:B:N --out DIR`: one 3DGS `.ply` per time (`frame_NNNN.ply`,
-/// the sequence viewers such as SuperSplat import) and `sequence.json` listing the files and
+/// the sequence viewers such as `SuperSplat` import) and `sequence.json` listing the files and
 /// their times, every file written atomically; the index comes last, so a folder with an
 /// index holds the whole sequence. An interrupt stops after the current file.
 ///
