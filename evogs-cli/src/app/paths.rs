@@ -98,15 +98,51 @@ impl RunFolder {
     }
 }
 
-/// The scene shipped in the repository (`data/toys-mini`): next to the working directory
-/// if run from the repository root, else next to this crate's sources.
+/// The shipped scene (`data/toys-mini`, 2.8 MB), embedded in the binary so that an installed
+/// `evogs` trains on it from any folder.
+static SHIPPED: include_dir::Dir<'static> =
+    include_dir::include_dir!("$CARGO_MANIFEST_DIR/../data/toys-mini");
+
+/// The shipped scene (`data/toys-mini`): in the working directory if run from the repository
+/// root, else beside this crate's sources if they are still there, else the copy embedded in
+/// the binary, written once to `evogs-VERSION/toys-mini` in the user's cache folder
+/// (`$XDG_CACHE_HOME`, `~/.cache`, or the temporary folder).
 #[must_use]
 pub fn shipped_scene() -> PathBuf {
     let local = PathBuf::from("data/toys-mini");
     if local.join("transforms_train.json").is_file() {
         return local;
     }
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/toys-mini")
+    let sources = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/toys-mini");
+    if sources.join("transforms_train.json").is_file() {
+        return sources;
+    }
+    let cache = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
+        .unwrap_or_else(std::env::temp_dir)
+        .join(format!("evogs-{}", env!("CARGO_PKG_VERSION")))
+        .join("toys-mini");
+    match extract_shipped(&cache) {
+        Ok(()) => cache,
+        // Loading will then name the missing folder.
+        Err(_) => sources,
+    }
+}
+
+/// Writes the embedded scene into `dir` unless a complete copy is there (the marker file is
+/// written last).
+///
+/// # Errors
+/// I/O failures.
+pub fn extract_shipped(dir: &Path) -> std::io::Result<()> {
+    let marker = dir.join(".complete");
+    if marker.is_file() {
+        return Ok(());
+    }
+    std::fs::create_dir_all(dir)?;
+    SHIPPED.extract(dir)?;
+    crate::atomic::write_atomic(&marker, env!("CARGO_PKG_VERSION").as_bytes())
 }
 
 /// The multi-view scene shipped in the repository (`data/toys-mv-mini`, N3DV layout), found
