@@ -8,12 +8,11 @@ use evogs_cli::app::export::{SEQUENCE_FILE, export, export_sequence};
 use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
 use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
 use evogs_cli::app::study::{StudyArgs, StudyProtocol, parse_motions, run_study};
-use evogs_cli::app::train::{TrainArgs, train};
+use evogs_cli::app::train::{TrainArgs, positive_count, train};
 use evogs_cli::check::grad::check_grad;
 use evogs_cli::check::order::{Expect, check_order};
-use evogs_cli::config::{Preset, Protocol};
+use evogs_cli::config::Preset;
 use evogs_cli::data::{DataFormat, SplitName};
-use evogs_cli::model::Motion;
 use evogs_cli::verify::{LEGEND, verify_file};
 use evogs_ode::Method;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -32,51 +31,7 @@ struct Cli {
 enum Cmd {
     /// Train a dynamic scene (default: the shipped toys-mini scene) and end with test metrics
     /// and a GIF.
-    Train {
-        /// Dataset folder, D-NeRF or N3DV layout (default: data/toys-mini shipped with evogs).
-        #[arg(long)]
-        data: Option<PathBuf>,
-        /// Dataset layout: auto (default: `transforms_train.json` is D-NeRF,
-        /// `poses_bounds.npy` is N3DV), dnerf or n3dv.
-        #[arg(long)]
-        format: Option<DataFormat>,
-        /// Run folder (config, checkpoints, log, curve, metrics, renders).
-        #[arg(long, default_value = "runs/latest")]
-        out: PathBuf,
-        /// TOML file overlaid on the preset (any subset of the fields of RUN/config.toml).
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// Preset: fast (default, sized for 2 CPU cores) or paper (method.md's numbers).
-        #[arg(long)]
-        preset: Option<Preset>,
-        /// Dynamics: velocity (EvoGS, default), deformation (4DGS-style) or static (3DGS).
-        #[arg(long)]
-        motion: Option<Motion>,
-        /// Training protocol: full, sparse, future or backward.
-        #[arg(long)]
-        protocol: Option<Protocol>,
-        /// Stride of the sparse protocol (every k-th distinct training time).
-        #[arg(long)]
-        stride: Option<usize>,
-        /// Split time of the future/backward protocols.
-        #[arg(long)]
-        split_time: Option<f64>,
-        /// Total iterations (warm-up included). A new run's warm-up and temporal curriculum
-        /// are shortened to fit (a note says so); to stop early with the planned schedule,
-        /// set schedule.iterations in a --config file. With --resume: extends the run.
-        #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
-        iters: Option<u64>,
-        /// Random seed.
-        #[arg(long, allow_negative_numbers = true)]
-        seed: Option<u64>,
-        /// Continue from RUN/checkpoint.bin (with --iters to extend the run).
-        #[arg(long, conflicts_with = "force")]
-        resume: bool,
-        /// Replace the run already in RUN (without it, training into a folder that holds a
-        /// checkpoint is refused).
-        #[arg(long)]
-        force: bool,
-    },
+    Train(TrainArgs),
     /// Run the paper's protocols for several motions with one preset, budget and dataset:
     /// a run per (protocol, motion, seed), each evaluated on its protocol's held-out sets,
     /// summarised in OUT/study.json, OUT/study.md (table) and OUT/study.png (bars).
@@ -208,15 +163,6 @@ enum Cmd {
         #[arg(long)]
         out: PathBuf,
     },
-}
-
-/// A whole number of at least 1 (iterations, seeds, jobs), with a message that says so for
-/// `-5`, `0` or `1.5` instead of clap's "unexpected argument".
-fn positive_count(s: &str) -> Result<u64, String> {
-    match s.trim().parse::<u64>() {
-        Ok(n) if n >= 1 => Ok(n),
-        _ => Err(format!("`{s}` is not a whole number of at least 1")),
-    }
 }
 
 /// The frame options `render` and `inject` share.
@@ -351,37 +297,7 @@ fn run(cli: Cli) -> Result<()> {
         started: std::time::Instant::now(),
     };
     match cli.cmd {
-        Cmd::Train {
-            data,
-            format,
-            out,
-            config,
-            preset,
-            motion,
-            protocol,
-            stride,
-            split_time,
-            iters,
-            seed,
-            resume,
-            force,
-        } => {
-            let args = TrainArgs {
-                data,
-                out,
-                config,
-                preset,
-                motion,
-                protocol,
-                stride,
-                split_time,
-                iters,
-                seed,
-                format,
-                resume,
-                force,
-                skip_outputs: false,
-            };
+        Cmd::Train(args) => {
             let o = train(&args, &mut term)?;
             println!("run: {}", o.run.dir.display());
             println!(

@@ -16,37 +16,68 @@ use crate::train::views::{supervised_indices, training_frames};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// The arguments of `evogs train`.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// The options of `evogs train`: the command line's flags (clap) and a record that can be
+/// stored and read back (serde) are this one struct.
+#[derive(Clone, Debug, Default, PartialEq, clap::Args, serde::Serialize, serde::Deserialize)]
 pub struct TrainArgs {
-    /// Dataset folder (default: the shipped scene).
+    /// Dataset folder, D-NeRF or N3DV layout (default: data/toys-mini shipped with evogs).
+    #[arg(long)]
     pub data: Option<PathBuf>,
-    /// Run folder.
+    /// Run folder (config, checkpoints, log, curve, metrics, renders).
+    #[arg(long, default_value = "runs/latest")]
     pub out: PathBuf,
-    /// Configuration file overlaid on the preset.
+    /// TOML file overlaid on the preset (any subset of the fields of RUN/config.toml).
+    #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Preset (`fast` by default, or `paper`).
+    /// Preset: fast (default, sized for 2 CPU cores) or paper (the paper's D-NeRF settings).
+    #[arg(long)]
     pub preset: Option<Preset>,
-    /// Motion override.
+    /// Dynamics: velocity (EvoGS, default), deformation (4DGS-style) or static (3DGS).
+    #[arg(long)]
     pub motion: Option<Motion>,
-    /// Protocol override.
+    /// Training protocol: full, sparse, future or backward.
+    #[arg(long)]
     pub protocol: Option<Protocol>,
-    /// Sparse-protocol stride override.
+    /// Stride of the sparse protocol (every k-th distinct training time).
+    #[arg(long)]
     pub stride: Option<usize>,
-    /// Future/backward split-time override.
+    /// Split time of the future/backward protocols.
+    #[arg(long)]
     pub split_time: Option<f64>,
-    /// Total-iterations override.
+    /// Total iterations (warm-up included). A new run's warm-up and temporal curriculum
+    /// are shortened to fit (a note says so); to stop early with the planned schedule,
+    /// set schedule.iterations in a --config file. With --resume: extends the run.
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
     pub iters: Option<u64>,
-    /// Seed override.
+    /// Random seed.
+    #[arg(long, allow_negative_numbers = true)]
     pub seed: Option<u64>,
-    /// Dataset layout override (`data.format`; default: recognised from the folder).
+    /// Dataset layout: auto (default: `transforms_train.json` is D-NeRF,
+    /// `poses_bounds.npy` is N3DV), dnerf or n3dv.
+    #[arg(long)]
     pub format: Option<DataFormat>,
-    /// Continue from the run folder's checkpoint.
+    /// Continue from the run folder's checkpoint (with --iters to extend the run).
+    #[arg(long, conflicts_with = "force")]
     pub resume: bool,
-    /// Replace a run already in the folder (its checkpoint, log, curve, metrics, renders).
+    /// Replace the run already in the folder (without it, training into a folder that holds
+    /// a checkpoint is refused).
+    #[arg(long)]
     pub force: bool,
-    /// Skip the final evaluation and GIF (tests).
+    /// Skip the final evaluation and GIF (tests, studies).
+    #[arg(skip)]
+    #[serde(default)]
     pub skip_outputs: bool,
+}
+
+/// A command-line count: a whole number of at least 1 (`--iters`, `--seeds`, `--jobs`).
+///
+/// # Errors
+/// Anything else, quoted.
+pub fn positive_count(s: &str) -> Result<u64, String> {
+    match s.trim().parse::<u64>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("`{s}` is not a whole number of at least 1")),
+    }
 }
 
 /// What a training run produced.
@@ -419,5 +450,32 @@ mod tests {
             "{}",
             notes[0]
         );
+    }
+
+    #[test]
+    fn the_flags_and_the_stored_record_are_one_struct() {
+        use clap::Parser as _;
+        #[derive(clap::Parser)]
+        struct Line {
+            #[command(flatten)]
+            args: TrainArgs,
+        }
+        let line = "evogs --data scene --out runs/a --preset paper --motion deformation \
+                    --protocol sparse --stride 4 --iters 300 --seed 7 --format n3dv --force";
+        let args = Line::try_parse_from(line.split_whitespace())
+            .expect("parses")
+            .args;
+        assert_eq!(args.preset, Some(Preset::Paper));
+        assert_eq!(
+            (args.stride, args.iters, args.seed),
+            (Some(4), Some(300), Some(7))
+        );
+        assert!(args.force && !args.resume && !args.skip_outputs);
+        let json = serde_json::to_string(&args).expect("serialises");
+        let back: TrainArgs = serde_json::from_str(&json).expect("reads back");
+        assert_eq!(back, args, "{json}");
+        let defaults = Line::try_parse_from(["evogs"]).expect("defaults").args;
+        assert_eq!(defaults.out, PathBuf::from("runs/latest"));
+        assert!(Line::try_parse_from(["evogs", "--iters", "0"]).is_err());
     }
 }
