@@ -212,9 +212,9 @@ fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
 
 fn save_all(t: &Trainer, run: &RunFolder) -> Result<(), CommandError> {
     checkpoint::save(t, &run.checkpoint()).map_err(CommandError::from_display)?;
-    write_log(&t.log, &run.log())?;
-    if t.log.len() >= 2 {
-        plot::save_curve(&t.log, &run.curve()).map_err(CommandError)?;
+    write_log(t.log(), &run.log())?;
+    if t.log().len() >= 2 {
+        plot::save_curve(t.log(), &run.curve()).map_err(CommandError)?;
     }
     Ok(())
 }
@@ -329,7 +329,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         .map_err(|e| CommandError(format!("{}: {e}", run.data_ref().display())))?;
     let mut t = if resuming {
         let t = checkpoint::resume(&run.checkpoint(), views).map_err(CommandError::from_display)?;
-        rep.info(&format!("resuming at iteration {}", t.iteration));
+        rep.info(&format!("resuming at iteration {}", t.iteration()));
         t
     } else {
         rep.info(&init_note(&ds, &cfg));
@@ -339,9 +339,9 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             .map(|p| (p.positions.as_slice(), p.colors.as_deref()));
         Trainer::new(cfg.clone(), views, pts).map_err(CommandError::from_display)?
     };
-    t.cfg.schedule.iterations = cfg.schedule.iterations;
-    rep.start("train", t.cfg.schedule.iterations);
-    rep.progress(t.iteration, "");
+    t.set_total_iterations(cfg.schedule.iterations);
+    rep.start("train", t.cfg().schedule.iterations);
+    rep.progress(t.iteration(), "");
     let mut last_save = std::time::Instant::now();
     while !t.finished() {
         let r = t.step().map_err(CommandError::from_display)?;
@@ -349,23 +349,23 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             rep.info(&format!(
                 "iteration {}: dynamics on ({:?} motion, {} Gaussians)",
                 r.iteration,
-                t.model.motion,
-                t.model.len()
+                t.model().motion,
+                t.model().len()
             ));
         }
         let psnr = crate::train::trainer::psnr_of_mse(r.losses.mse);
         rep.progress(
-            t.iteration,
+            t.iteration(),
             &format!(
                 "loss {:.4} psnr {:.2} gaussians {}",
                 r.losses.total,
                 psnr,
-                t.model.len()
+                t.model().len()
             ),
         );
-        let every = t.cfg.schedule.checkpoint_every;
-        let minutes = t.cfg.schedule.checkpoint_minutes;
-        if (every > 0 && t.iteration % every == 0)
+        let every = t.cfg().schedule.checkpoint_every;
+        let minutes = t.cfg().schedule.checkpoint_minutes;
+        if (every > 0 && t.iteration() % every == 0)
             || (minutes > 0.0 && last_save.elapsed().as_secs_f64() >= 60.0 * minutes)
         {
             save_all(&t, &run)?;
@@ -378,8 +378,8 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             return Err(CommandError(format!(
                 "interrupted at iteration {} of {}: checkpoint written to {}; continue with \
                  `evogs train --out {} --resume`",
-                t.iteration,
-                t.cfg.schedule.iterations,
+                t.iteration(),
+                t.cfg().schedule.iterations,
                 run.checkpoint().display(),
                 run.dir.display()
             )));
@@ -391,34 +391,35 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         run: run.clone(),
         test: None,
         gif: None,
-        iterations: t.iteration,
-        seconds: t.train_seconds,
-        gaussians: t.model.len(),
+        iterations: t.iteration(),
+        seconds: t.train_seconds(),
+        gaussians: t.model().len(),
     };
     if args.skip_outputs {
         return Ok(outcome);
     }
     if !ds.test.is_empty() {
         rep.start("evaluate test", ds.test.len() as u64);
+        let par = t.par();
         let mut m = evaluate(
-            &mut t.model,
+            t.model_mut(),
             &ds.test,
             SplitName::Test,
             None,
             cfg.data.background,
-            t.par,
+            par,
             |d, _| rep.progress(d as u64, ""),
         )
         .map_err(CommandError)?;
         rep.finish();
-        m.iterations = t.iteration;
-        m.train_seconds = t.train_seconds;
+        m.iterations = t.iteration();
+        m.train_seconds = t.train_seconds();
         let json = serde_json::to_string_pretty(&m).unwrap_or_default();
         crate::atomic::write_atomic(&run.metrics("test"), json.as_bytes())
             .map_err(|e| CommandError(format!("{}: {e}", run.metrics("test").display())))?;
         outcome.test = Some(m);
     }
-    let (t0, t1) = t.time_range;
+    let (t0, t1) = t.time_range();
     let rargs = RenderArgs {
         run: run.dir.clone(),
         out: run.dir.join("render"),
@@ -428,7 +429,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         data: Some(data_dir),
         format: Some(ds.format),
     };
-    outcome.gif = render_sequence(&rargs, Some((&mut t.model, &ds)), rep)?.gif;
+    outcome.gif = render_sequence(&rargs, Some((t.model_mut(), &ds)), rep)?.gif;
     Ok(outcome)
 }
 
