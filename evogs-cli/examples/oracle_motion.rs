@@ -19,7 +19,7 @@
 //! body (RMS and percentiles over 16 evenly spaced times, integrating from the anchors with the
 //! run's stepper) as it goes, and writes the checkpoint back with the dynamics on, so that
 //! `evogs train --out RUN --resume --iters N` continues photometric training from the true
-//! motion. The README compares such runs with the ones that had to find the motion.
+//! motion, to compare such runs with the ones that had to find the motion.
 //!
 //! ```text
 //! cargo run --release -p evogs-cli --example oracle_motion -- RUN [MODE] [ITERS] [STATIC_WEIGHT] [LR_MULT] [STEP_FRACTION]

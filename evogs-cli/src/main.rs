@@ -46,7 +46,8 @@ enum Cmd {
         /// TOML file overlaid on the preset (any subset of the fields of RUN/config.toml).
         #[arg(long)]
         config: Option<PathBuf>,
-        /// Preset: fast (default, sized for 2 CPU cores) or paper (method.md's numbers).
+        /// Preset: fast (default, sized for 2 CPU cores) or paper (the released code's D-NeRF
+        /// numbers; see docs/method.md).
         #[arg(long)]
         preset: Option<String>,
         /// Dynamics: velocity (EvoGS, default), deformation (4DGS-style) or static (3DGS).

@@ -1,4 +1,4 @@
-//! Velocity coherence (method.md section 6, the anisotropic kNN form of the released code),
+//! Velocity coherence (`docs/losses.md` §7, the anisotropic kNN form of the released code),
 //! and its twist form for the twist velocity.
 //!
 //! For a sample of M Gaussians at their (detached) positions `x_i` with velocities
