@@ -1,4 +1,9 @@
 //! The `evogs` command line: a thin clap front end over `evogs_cli::app`.
+#![allow(
+    rustdoc::broken_intra_doc_links,
+    rustdoc::invalid_html_tags,
+    reason = "the doc comments here are the command line's help text (`A:B:N`, `<split>`), not rustdoc"
+)]
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

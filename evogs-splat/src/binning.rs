@@ -1,7 +1,7 @@
 //! Tile binning for the tiled rasterizer: which Gaussians touch which 16×16 tile, in
 //! compositing order ([`Binning`]).
 //!
-//! # Tile range (splatting.md A.9, gsplat `isect_tiles`)
+//! # Tile range (`docs/splatting.md` §9, gsplat `isect_tiles`)
 //!
 //! ```text
 //! tiles_x = ceil(W/16),  tiles_y = ceil(H/16)

@@ -1,7 +1,7 @@
 //! The backward pass of the tiled rasterizer, [`TiledRasterizer::backward`], and the
 //! per-view densification statistics [`DensifyStats`].
 //!
-//! The formulas are those of [`raster_ref_vjp`](crate::raster_ref_vjp) (splatting.md A.12);
+//! The formulas are those of [`raster_ref_vjp`](crate::raster_ref_vjp) (`docs/splatting.md` §12);
 //! the per-pixel terms are summed in another order (per group and lane, then per tile
 //! entry, then per Gaussian).
 //!

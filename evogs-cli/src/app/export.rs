@@ -1,4 +1,5 @@
-//! `evogs export`: the Gaussians at time `t` as a standard 3DGS `.ply` (splatting.md D):
+//! `evogs export`: the Gaussians at time `t` as a standard 3DGS `.ply` (`docs/splatting.md`
+//! §15):
 //! `x y z nx ny nz f_dc_0..2 f_rest_0..(3(K−1)−1) opacity scale_0..2 rot_0..3`, binary
 //! little-endian floats; `f_rest` channel-major (all R, then G, then B); opacity as a logit,
 //! scales as logs, rotations as raw (w, x, y, z).

@@ -1,5 +1,6 @@
 //! The training configuration: one TOML-serialisable struct with documented defaults and two
-//! presets, `fast` (the default: sized for 2 CPU cores) and `paper` (method.md's numbers).
+//! presets, `fast` (the default: sized for 2 CPU cores) and `paper` (the released code's D-NeRF
+//! numbers; `docs/method.md` §10).
 //!
 //! Resolution order: preset → config file (`--config`, any subset of fields) → command-line
 //! flags. The resolved configuration is written to `RUN/config.toml`.
@@ -75,7 +76,7 @@ impl TrainConfig {
         // objects' unseen sides then look wrong in their true pose and the learnt motion stays
         // short of it. 200 warm-up iterations instead of 1500 (and no opacity reset, which
         // would fall in the curriculum) moved the toys cube about twice as far along its true
-        // motion at the same test PSNR, in less time (README).
+        // motion at the same test PSNR, in less time (one run each on toys, during development).
         c.schedule.warmup_iters = 200;
         c.schedule.iterations = 2700;
         c.schedule.sh_degree_interval = 500;
@@ -87,7 +88,7 @@ impl TrainConfig {
         c.densify.max_gaussians = 20_000;
         // Temporal curriculum: warm up on the first 5 % of the time range, grow the window
         // over 1500 dynamic iterations with half of them on its newest stretch (toys-mini:
-        // +0.95 dB test PSNR at the same cost, README). The position and field decays pause
+        // +0.95 dB test PSNR at the same cost, one run each). The position and field decays pause
         // meanwhile, so the position decay runs over the remaining 200 + 1000 iterations.
         c.schedule.warmup_time_window = 0.05;
         c.schedule.curriculum_iters = 1500;
@@ -97,9 +98,9 @@ impl TrainConfig {
         c
     }
 
-    /// The `paper` preset: method.md's D-NeRF numbers (5000 static + 20000 dynamic
-    /// iterations, HexPlane 2 × 32 channels at [64, 64, 64, 25], MLP 64 wide, RK4 with steps
-    /// of 1/8 of the time range, three trainable anchors).
+    /// The `paper` preset: the released code's D-NeRF numbers (`docs/method.md` §10; 5000
+    /// static + 20000 dynamic iterations, HexPlane 2 × 32 channels at [64, 64, 64, 25], MLP 64
+    /// wide, RK4 with steps of 1/8 of the time range, three trainable anchors).
     #[must_use]
     pub fn paper() -> Self {
         Self {

@@ -1,5 +1,5 @@
 //! A small PLY reader and writer for vertex tables: point clouds (`points3d.ply`) and the
-//! standard 3DGS Gaussian layout (splatting.md D).
+//! standard 3DGS Gaussian layout (`docs/splatting.md` §15).
 //!
 //! Reads `ascii` and `binary_little_endian` files (format version 1.0). The `vertex` element
 //! must have scalar properties of any numeric type (`char`…`double`, also the

@@ -1,5 +1,5 @@
 //! The dynamic scene model: canonical Gaussians, waypoint (anchor) states and the neural
-//! field, with the three dynamics modes (design.md section 3).
+//! field, with the three dynamics modes (`docs/method.md` §5 and §6).
 //!
 //! - [`Motion::Velocity`] (EvoGS): the state `(p, R, s)` of every Gaussian evolves under
 //!   `d(p, R, s)/dt = (v, ω, ṡ)(p, t)`, integrated from the nearest anchor with an ODE

@@ -1,5 +1,5 @@
 //! Adam with per-group learning rates, and the exponential learning-rate schedule of
-//! 3DGS/4DGS/EvoGS (method.md section 7.2).
+//! 3DGS/4DGS/EvoGS (`docs/method.md` §7.3).
 //!
 //! `m ← β₁m + (1 − β₁)g`, `v ← β₂v + (1 − β₂)g²`, `x ← x − lr·m̂/(√v̂ + ε)` with bias
 //! corrections `m̂ = m/(1 − β₁ᵗ)`, `v̂ = v/(1 − β₂ᵗ)`; β = (0.9, 0.999), ε = 1e-15 (EvoGS).

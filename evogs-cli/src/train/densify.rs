@@ -1,4 +1,4 @@
-//! Adaptive density control of 3DGS (splatting.md B, method.md section 7.4): clone small
+//! Adaptive density control of 3DGS (`docs/method.md` §7.4): clone small
 //! Gaussians and split large ones whose view-averaged 2D-mean gradient is large, prune
 //! transparent (and optionally huge) ones, and reset opacities periodically.
 //!
