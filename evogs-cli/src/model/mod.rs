@@ -102,7 +102,8 @@ pub struct ModelGrad<T> {
 }
 
 /// How many field evaluations to keep for the adjoint: every stage of the longest integration
-/// a frame or an anchor segment needs (so the discrete adjoint recomputes nothing), at most 16.
+/// a frame or an anchor segment needs, capped at 4 (each holds the field's activations for
+/// every Gaussian; evaluations beyond the cap are recomputed by the adjoint).
 fn stored_evaluations(method: Method, max_step: f64, anchor_times: &[f64]) -> usize {
     let longest = anchor_times
         .windows(2)
