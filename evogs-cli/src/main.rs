@@ -69,7 +69,7 @@ enum Cmd {
         /// Random seed.
         #[arg(long, allow_negative_numbers = true)]
         seed: Option<u64>,
-        /// Continue from RUN/checkpoint.bin (with --iters to extend the run).
+        /// Continue from RUN/checkpoint.safetensors (with --iters to extend the run).
         #[arg(long, conflicts_with = "force")]
         resume: bool,
         /// Replace the run already in RUN (without it, training into a folder that holds a
