@@ -233,8 +233,10 @@ impl Archive {
         }
         let (n, header) =
             SafeTensors::read_metadata(bytes).map_err(|e| format!("safetensors: {e}"))?;
-        // `read_metadata` has checked that the header's `n` bytes follow the length.
-        let header_bytes = bytes.get(8..8 + n).ok_or("truncated header")?;
+        // `read_metadata` has checked that the header's `n` bytes follow the length and that
+        // the tensors' data fills the rest exactly; the slices below are checked anyway.
+        let start = n.checked_add(8).ok_or("header length")?;
+        let header_bytes = bytes.get(8..start).ok_or("truncated header")?;
         no_duplicate_keys(header_bytes).map_err(|e| format!("safetensors header: {e}"))?;
         let entry = header
             .metadata()
@@ -255,7 +257,7 @@ impl Archive {
             .collect::<Result<_, _>>()?;
         let mut meta = entry["meta"].clone();
         restore_float_bits(&mut meta, &bits)?;
-        let data = &bytes[8 + n..];
+        let data = bytes.get(start..).ok_or("truncated data")?;
         let mut ar = Self::new(meta);
         for name in header.offset_keys() {
             let info = header.info(&name).ok_or("tensor index")?;
