@@ -1013,7 +1013,7 @@ fn build(c: &mut Cases) {
     }
 
     // ---- checkpoints (a copy of the tiny run, damaged)
-    let good = std::fs::read(run.join("checkpoint.bin")).expect("checkpoint");
+    let good = std::fs::read(run.join("checkpoint.safetensors")).expect("checkpoint");
     let mut flipped = good.clone();
     flipped[0] ^= 0xff;
     let nan_means = {
@@ -1048,13 +1048,13 @@ fn build(c: &mut Cases) {
     for (name, bytes) in damaged {
         let r = c.dir("ckpt");
         common::copy_tree(&run, &r);
-        std::fs::write(r.join("checkpoint.bin"), &bytes).expect("damage");
+        std::fs::write(r.join("checkpoint.safetensors"), &bytes).expect("damage");
         let ply = r.join("x.ply");
         let frames = r.join("frames");
         c.add(
             &format!("{name}: export"),
             &[&"export", &"--run", &r, &"--time", &"0.5", &"--out", &ply],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&ply],
         );
         c.add(
@@ -1062,13 +1062,13 @@ fn build(c: &mut Cases) {
             &[
                 &"render", &"--run", &r, &"--out", &frames, &"--times", &"0:1:2", &"--data", d,
             ],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&frames],
         );
         c.add(
             &format!("{name}: eval"),
             &[&"eval", &"--run", &r, &"--data", d],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&r.join("metrics-test.json")],
         );
     }
@@ -1078,7 +1078,7 @@ fn build(c: &mut Cases) {
         c.add(
             "run without checkpoint",
             &[&"export", &"--run", &r, &"--time", &"0.5", &"--out", &ply],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&ply],
         );
         let r2 = c.dir("resume-nothing");
@@ -1094,7 +1094,7 @@ fn build(c: &mut Cases) {
                 &tiny,
                 &"--resume",
             ],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&r2.join("config.toml")],
         );
         let r3 = c.dir("existing-run");

@@ -90,7 +90,7 @@ fn frames_stream_to_disk_and_an_interrupt_keeps_what_is_finished() {
     );
 
     // An orbit for a hundred million frames is a formula, not a list.
-    let l = checkpoint::load_model(&run.join("checkpoint.bin")).expect("model");
+    let l = checkpoint::load_model(&run.join("checkpoint.safetensors")).expect("model");
     let ds = evogs_cli::app::load::load_dataset(&shipped_scene(), &l.cfg, false).expect("data");
     let cams = path_cameras(&CameraPath::Orbit, &ds, &l.model, 100_000_000).expect("orbit");
     assert!(matches!(cams, FrameCameras::Orbit(_)));

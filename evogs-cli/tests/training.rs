@@ -113,7 +113,7 @@ fn resume_continues_bit_for_bit() {
     let (views, pos, col) = data(&c);
     let dir = std::env::temp_dir().join(format!("evogs-resume-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");
-    let ck = dir.join("checkpoint.bin");
+    let ck = dir.join("checkpoint.safetensors");
     let mut a = Trainer::new(c.clone(), views.clone(), Some((&pos, Some(&col)))).expect("trainer");
     while !a.finished() {
         a.step().expect("step");
@@ -161,7 +161,7 @@ fn checkpoints_refuse_non_finite_values_both_ways() {
     t.step().expect("step");
     let dir = std::env::temp_dir().join(format!("evogs-nan-ckpt-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");
-    let ck = dir.join("checkpoint.bin");
+    let ck = dir.join("checkpoint.safetensors");
     checkpoint::save(&t, &ck).expect("a finite model saves");
     let good = std::fs::read(&ck).expect("saved");
     t.model_mut().canonical.means[7] = evogs_math::Vec3::new(f32::NAN, 0.0, 0.0);
@@ -198,7 +198,7 @@ fn checkpoints_written_with_the_removed_searches_still_resume() {
     t.step().expect("step");
     let dir = std::env::temp_dir().join(format!("evogs-old-ckpt-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");
-    let ck = dir.join("checkpoint.bin");
+    let ck = dir.join("checkpoint.safetensors");
     checkpoint::save(&t, &ck).expect("save");
     let mut ar = evogs_cli::run::archive::Archive::read(&ck).expect("archive");
     let cfg = ar.meta["config"]

@@ -56,7 +56,8 @@ pub struct TrainArgs {
     /// `poses_bounds.npy` is N3DV), dnerf or n3dv.
     #[arg(long)]
     pub format: Option<DataFormat>,
-    /// Continue from the run folder's checkpoint (with --iters to extend the run).
+    /// Continue from the run folder's checkpoint, RUN/checkpoint.safetensors (with --iters to
+    /// extend the run).
     #[arg(long, conflicts_with = "force")]
     pub resume: bool,
     /// Replace the run already in the folder (without it, training into a folder that holds
@@ -211,7 +212,17 @@ fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
 }
 
 fn save_all(t: &Trainer, run: &RunFolder) -> Result<(), CommandError> {
-    checkpoint::save(t, &run.checkpoint()).map_err(CommandError::from_display)?;
+    checkpoint::save(t, &run.checkpoint_to_write()).map_err(CommandError::from_display)?;
+    // A resumed older run's `checkpoint.bin` is superseded by the file just written.
+    let legacy = run.legacy_checkpoint();
+    if legacy.is_file() {
+        std::fs::remove_file(&legacy).map_err(|e| {
+            CommandError(format!(
+                "{}: cannot remove the superseded checkpoint: {e}",
+                legacy.display()
+            ))
+        })?;
+    }
     write_log(t.log(), &run.log())?;
     if t.log().len() >= 2 {
         plot::save_curve(t.log(), &run.curve()).map_err(CommandError)?;
@@ -265,7 +276,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
     }
     if !args.resume && run.checkpoint().is_file() && !args.force {
         return Err(CommandError(format!(
-            "{}: the folder holds a trained run (checkpoint.bin); pass --resume to continue \
+            "{}: the folder holds a trained run (a checkpoint); pass --resume to continue \
              it or --force to replace it",
             run.dir.display()
         )));

@@ -271,6 +271,30 @@ impl Trainer {
         &self.optim
     }
 
+    /// The densification accumulators.
+    #[must_use]
+    pub const fn densify_stats(&self) -> &DensifyStats {
+        &self.stats
+    }
+
+    /// The current permutation of the views (the epoch's order).
+    #[must_use]
+    pub fn view_order(&self) -> &[usize] {
+        &self.order
+    }
+
+    /// The state of the random generator (view order, coherence samples, split offsets).
+    #[must_use]
+    pub const fn rng_state(&self) -> u64 {
+        self.rng.state()
+    }
+
+    /// The scene extent that scales the position learning rate.
+    #[must_use]
+    pub const fn extent(&self) -> f64 {
+        self.extent
+    }
+
     /// The supervised training views.
     #[must_use]
     pub const fn views(&self) -> &TrainViews {

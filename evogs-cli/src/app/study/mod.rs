@@ -6,7 +6,7 @@
 //!
 //! ```text
 //! OUT/study.json  study.md  study.png
-//! OUT/runs/<protocol>-<motion>-s<k>/   config.toml checkpoint.bin log.csv ... study-run.json
+//! OUT/runs/<protocol>-<motion>-s<k>/   config.toml checkpoint.safetensors log.csv ... study-run.json
 //! ```
 //!
 //! A study is resumable: a run with a `study-run.json` is not trained again (its metrics are
@@ -26,7 +26,7 @@ pub use report::{Cell, CostRow, Provenance, Row, RunRecord, SetMetrics, Stat, St
 use super::Reporter;
 use super::error::CommandError;
 use super::load::load_dataset;
-use super::paths::shipped_scene;
+use super::paths::{RunFolder, shipped_scene};
 use super::plot::{BarGroup, save_bars};
 use super::train::{TrainArgs, resolve_config};
 use crate::config::{Preset, TrainConfig};
@@ -245,7 +245,7 @@ fn state_of(run: &PlannedRun, force: bool) -> Result<RunState, CommandError> {
             Err(other("a finished run"))
         };
     }
-    if run.args.out.join("checkpoint.bin").is_file() {
+    if RunFolder::new(&run.args.out).checkpoint().is_file() {
         return match stored_config_hash(&run.args.out) {
             Some(h) if h == run.config_hash => Ok(RunState::Resume),
             _ => Err(other("a checkpoint")),
