@@ -1,4 +1,5 @@
-//! The neural field at the peer's configuration (performance.md): HexPlane 2 levels × 32
+//! The neural field at the reference step's configuration (`docs/architecture.md` §6):
+//! HexPlane 2 levels × 32
 //! channels at [64, 64, 64, 25], MLP 64 wide with three heads (`paper`), and at the `fast`
 //! preset's (2 levels × 16 channels at [32, 32, 32, 16], MLP 32 wide); f32, for 5k and 20k
 //! Gaussians: one fresh evaluation, and one VJP (which reuses the stored forward pass of the same input, as

@@ -6,7 +6,7 @@
 //! `meta.json`, copied in `tools/data/toys-meta.json`) at points sampled in the turning cube
 //! at random times in `[0, 0.25]`, with the field's two Adam groups at the training rates
 //! (`grid_lr_init`, `deformation_lr_init`, both × the camera extent), and prints the relative
-//! error. The README compares this with how far photometric training turns the cube.
+//! error, to compare with how far photometric training turns the cube.
 //!
 //! ```text
 //! cargo run --release -p evogs-cli --example field_fit -- [LR_MULT] [fast|paper]

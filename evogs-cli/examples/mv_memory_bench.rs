@@ -235,27 +235,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         last_l1 = t.step()?.losses.l1;
     }
     let secs = start.elapsed().as_secs_f64();
-    let s = t.views.cache_stats();
+    let s = t.views().cache_stats();
     #[allow(clippy::cast_precision_loss, reason = "counts for display")]
     let mib = |b: usize| b as f64 / (1024.0 * 1024.0);
-    let v0 = t.views.cameras()[0];
+    let v0 = t.views().cameras()[0];
     let line = serde_json::json!({
         "dir": a.dir.display().to_string(),
         "cams": a.cams,
         "frames": a.frames,
         "width": v0.width,
         "height": v0.height,
-        "training_views": t.views.len(),
-        "decoded_training_mib": mib(t.views.len() * v0.width * v0.height * 12),
+        "training_views": t.views().len(),
+        "decoded_training_mib": mib(t.views().len() * v0.width * v0.height * 12),
         "files_on_disk_mib": du_mib(&a.dir),
         "cache_mb": a.cache_mb,
         "frames_in_memory": cached,
         "load_seconds": load_s,
-        "iterations": t.iteration,
+        "iterations": t.iteration(),
         "train_seconds": secs,
-        "iterations_per_second": t.iteration as f64 / secs,
+        "iterations_per_second": t.iteration() as f64 / secs,
         "last_l1": last_l1,
-        "gaussians": t.model.len(),
+        "gaussians": t.model().len(),
         "cache": {
             "hits": s.hits, "misses": s.misses, "waits": s.waits,
             "prefetched": s.prefetched, "evicted": s.evicted,

@@ -39,3 +39,8 @@ pub mod model;
 pub mod run;
 pub mod train;
 pub mod verify;
+
+/// The examples of `README.md`, run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

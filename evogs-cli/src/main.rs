@@ -1,20 +1,24 @@
 //! The `evogs` command line: a thin clap front end over `evogs_cli::app`.
+#![allow(
+    rustdoc::broken_intra_doc_links,
+    rustdoc::invalid_html_tags,
+    reason = "the doc comments here are the command line's help text (`A:B:N`, `<split>`), not rustdoc"
+)]
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use evogs_cli::app::Reporter;
 use evogs_cli::app::bench::{BenchArgs, parse_bench_motions, parse_sizes, run_bench};
 use evogs_cli::app::evaluate::{evaluate_run, parse_range};
-use evogs_cli::app::export::export;
+use evogs_cli::app::export::{SEQUENCE_FILE, export, export_sequence};
 use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
 use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
 use evogs_cli::app::study::{StudyArgs, StudyProtocol, parse_motions, run_study};
-use evogs_cli::app::train::{TrainArgs, train};
+use evogs_cli::app::train::{TrainArgs, positive_count, train};
 use evogs_cli::check::grad::check_grad;
 use evogs_cli::check::order::{Expect, check_order};
-use evogs_cli::config::Protocol;
+use evogs_cli::config::Preset;
 use evogs_cli::data::{DataFormat, SplitName};
-use evogs_cli::model::Motion;
 use evogs_cli::verify::{LEGEND, verify_file};
 use evogs_ode::Method;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -33,51 +37,7 @@ struct Cli {
 enum Cmd {
     /// Train a dynamic scene (default: the shipped toys-mini scene) and end with test metrics
     /// and a GIF.
-    Train {
-        /// Dataset folder, D-NeRF or N3DV layout (default: data/toys-mini shipped with evogs).
-        #[arg(long)]
-        data: Option<PathBuf>,
-        /// Dataset layout: auto (default: `transforms_train.json` is D-NeRF,
-        /// `poses_bounds.npy` is N3DV), dnerf or n3dv.
-        #[arg(long)]
-        format: Option<DataFormat>,
-        /// Run folder (config, checkpoints, log, curve, metrics, renders).
-        #[arg(long, default_value = "runs/latest")]
-        out: PathBuf,
-        /// TOML file overlaid on the preset (any subset of the fields of RUN/config.toml).
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// Preset: fast (default, sized for 2 CPU cores) or paper (method.md's numbers).
-        #[arg(long)]
-        preset: Option<String>,
-        /// Dynamics: velocity (EvoGS, default), deformation (4DGS-style) or static (3DGS).
-        #[arg(long)]
-        motion: Option<Motion>,
-        /// Training protocol: full, sparse, future or backward.
-        #[arg(long)]
-        protocol: Option<Protocol>,
-        /// Stride of the sparse protocol (every k-th distinct training time).
-        #[arg(long)]
-        stride: Option<usize>,
-        /// Split time of the future/backward protocols.
-        #[arg(long)]
-        split_time: Option<f64>,
-        /// Total iterations (warm-up included). A new run's warm-up and temporal curriculum
-        /// are shortened to fit (a note says so); to stop early with the planned schedule,
-        /// set schedule.iterations in a --config file. With --resume: extends the run.
-        #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
-        iters: Option<u64>,
-        /// Random seed.
-        #[arg(long, allow_negative_numbers = true)]
-        seed: Option<u64>,
-        /// Continue from RUN/checkpoint.bin (with --iters to extend the run).
-        #[arg(long, conflicts_with = "force")]
-        resume: bool,
-        /// Replace the run already in RUN (without it, training into a folder that holds a
-        /// checkpoint is refused).
-        #[arg(long)]
-        force: bool,
-    },
+    Train(TrainArgs),
     /// Run the paper's protocols for several motions with one preset, budget and dataset:
     /// a run per (protocol, motion, seed), each evaluated on its protocol's held-out sets,
     /// summarised in OUT/study.json, OUT/study.md (table) and OUT/study.png (bars).
@@ -98,7 +58,7 @@ enum Cmd {
         motions: String,
         /// Preset of every run: fast (default) or paper.
         #[arg(long)]
-        preset: Option<String>,
+        preset: Option<Preset>,
         /// TOML file overlaid on the preset for every run.
         #[arg(long)]
         config: Option<PathBuf>,
@@ -222,27 +182,27 @@ enum Cmd {
         #[arg(long, default_value_t = 0)]
         seed: u64,
     },
-    /// Export the Gaussians at time T as a standard 3DGS .ply.
+    /// Export the Gaussians at time T as a standard 3DGS .ply, or a sequence of them at
+    /// times A:B:N (a folder of .ply files and sequence.json).
     Export {
         /// Run folder.
         #[arg(long)]
         run: PathBuf,
-        /// Time (any, negative too).
+        /// One time (any, negative too): write the Gaussians at it into the `.ply` file --out.
+        #[arg(
+            long,
+            allow_hyphen_values = true,
+            required_unless_present = "times",
+            conflicts_with = "times"
+        )]
+        time: Option<f64>,
+        /// Times A:B:N: write N `.ply` files and `sequence.json` into the folder --out.
         #[arg(long, allow_hyphen_values = true)]
-        time: f64,
-        /// Output .ply file.
+        times: Option<String>,
+        /// Output `.ply` file (--time) or folder (--times).
         #[arg(long)]
         out: PathBuf,
     },
-}
-
-/// A whole number of at least 1 (iterations, seeds, jobs), with a message that says so for
-/// `-5`, `0` or `1.5` instead of clap's "unexpected argument".
-fn positive_count(s: &str) -> Result<u64, String> {
-    match s.trim().parse::<u64>() {
-        Ok(n) if n >= 1 => Ok(n),
-        _ => Err(format!("`{s}` is not a whole number of at least 1")),
-    }
 }
 
 /// A whole number of at least 0 (warm-up iterations), with a message that says so for `-1`
@@ -385,37 +345,7 @@ fn run(cli: Cli) -> Result<()> {
         started: std::time::Instant::now(),
     };
     match cli.cmd {
-        Cmd::Train {
-            data,
-            format,
-            out,
-            config,
-            preset,
-            motion,
-            protocol,
-            stride,
-            split_time,
-            iters,
-            seed,
-            resume,
-            force,
-        } => {
-            let args = TrainArgs {
-                data,
-                out,
-                config,
-                preset,
-                motion,
-                protocol,
-                stride,
-                split_time,
-                iters,
-                seed,
-                format,
-                resume,
-                force,
-                skip_outputs: false,
-            };
+        Cmd::Train(args) => {
             let o = train(&args, &mut term)?;
             println!("run: {}", o.run.dir.display());
             println!(
@@ -578,10 +508,29 @@ fn run(cli: Cli) -> Result<()> {
                 println!("\nreport: {}", p.display());
             }
         }
-        Cmd::Export { run, time, out } => {
-            let n = export(&run, time, &out)?;
-            println!("{n} Gaussians at t = {time} -> {}", out.display());
-        }
+        Cmd::Export {
+            run,
+            time,
+            times,
+            out,
+        } => match (time, times) {
+            (Some(t), _) => {
+                let n = export(&run, t, &out)?;
+                println!("{n} Gaussians at t = {t} -> {}", out.display());
+            }
+            (None, Some(spec)) => {
+                let times = parse_times(&spec).map_err(|e| anyhow::anyhow!("--times: {e}"))?;
+                let seq = export_sequence(&run, times, &out, &mut term)?;
+                println!(
+                    "{} files of {} Gaussians -> {} ({})",
+                    seq.files.len(),
+                    seq.gaussians,
+                    out.display(),
+                    SEQUENCE_FILE
+                );
+            }
+            (None, None) => anyhow::bail!("export needs --time T or --times A:B:N"),
+        },
         Cmd::CheckOrder { stepper, problem } => {
             let results = check_order(stepper, problem.as_deref())?;
             for r in &results {
@@ -725,7 +674,7 @@ mod tests {
         let Cmd::Export { time, .. } = parse("export --run r --time -0.5 --out o.ply") else {
             panic!("not export")
         };
-        assert!((time + 0.5).abs() < 1e-12, "parsed {time}");
+        assert_eq!(time, Some(-0.5), "parsed");
         let Cmd::Eval { time_range, .. } = parse("eval --run r --time-range -1:0.5") else {
             panic!("not eval")
         };

@@ -313,6 +313,37 @@ fn build(c: &mut Cases) {
             &[&ply_out],
         );
     }
+    let seq_out = root.join("never-sequence");
+    c.add(
+        "export time and times",
+        &[
+            &"export", &"--run", &run, &"--time", &"0.5", &"--times", &"0:1:2", &"--out", &seq_out,
+        ],
+        &["--time"],
+        &[&seq_out],
+    );
+    c.add(
+        "export neither time",
+        &[&"export", &"--run", &run, &"--out", &seq_out],
+        &["--time"],
+        &[&seq_out],
+    );
+    c.add(
+        "export times far",
+        &[
+            &"export", &"--run", &run, &"--times", &"0:1e9:2", &"--out", &seq_out,
+        ],
+        &["--times"],
+        &[&seq_out],
+    );
+    c.add(
+        "export times zero",
+        &[
+            &"export", &"--run", &run, &"--times", &"0:1:0", &"--out", &seq_out,
+        ],
+        &["--times"],
+        &[&seq_out],
+    );
     let frames_out = root.join("never-frames");
     for (name, spec, word) in [
         ("times two parts", "0:1", "0:1"),
@@ -982,7 +1013,7 @@ fn build(c: &mut Cases) {
     }
 
     // ---- checkpoints (a copy of the tiny run, damaged)
-    let good = std::fs::read(run.join("checkpoint.bin")).expect("checkpoint");
+    let good = std::fs::read(run.join("checkpoint.safetensors")).expect("checkpoint");
     let mut flipped = good.clone();
     flipped[0] ^= 0xff;
     let nan_means = {
@@ -1017,13 +1048,13 @@ fn build(c: &mut Cases) {
     for (name, bytes) in damaged {
         let r = c.dir("ckpt");
         common::copy_tree(&run, &r);
-        std::fs::write(r.join("checkpoint.bin"), &bytes).expect("damage");
+        std::fs::write(r.join("checkpoint.safetensors"), &bytes).expect("damage");
         let ply = r.join("x.ply");
         let frames = r.join("frames");
         c.add(
             &format!("{name}: export"),
             &[&"export", &"--run", &r, &"--time", &"0.5", &"--out", &ply],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&ply],
         );
         c.add(
@@ -1031,13 +1062,13 @@ fn build(c: &mut Cases) {
             &[
                 &"render", &"--run", &r, &"--out", &frames, &"--times", &"0:1:2", &"--data", d,
             ],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&frames],
         );
         c.add(
             &format!("{name}: eval"),
             &[&"eval", &"--run", &r, &"--data", d],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&r.join("metrics-test.json")],
         );
     }
@@ -1047,7 +1078,7 @@ fn build(c: &mut Cases) {
         c.add(
             "run without checkpoint",
             &[&"export", &"--run", &r, &"--time", &"0.5", &"--out", &ply],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&ply],
         );
         let r2 = c.dir("resume-nothing");
@@ -1063,7 +1094,7 @@ fn build(c: &mut Cases) {
                 &tiny,
                 &"--resume",
             ],
-            &["checkpoint.bin"],
+            &["checkpoint.safetensors"],
             &[&r2.join("config.toml")],
         );
         let r3 = c.dir("existing-run");

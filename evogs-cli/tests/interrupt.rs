@@ -122,7 +122,7 @@ fn interrupted_runs_resume_bit_for_bit() {
         "{}",
         String::from_utf8_lossy(&full.stderr)
     );
-    let reference = model_of(&w.dir.join("full/checkpoint.bin"));
+    let reference = model_of(&w.dir.join("full/checkpoint.safetensors"));
     assert_eq!(reference.2, 160, "finished");
 
     // Stop points differ between runs of the test (any iteration must do).
@@ -135,7 +135,7 @@ fn interrupted_runs_resume_bit_for_bit() {
         let (status, text) = train_and_signal(w.train(run, &[]), signal, at);
         assert!(!status.success(), "{signal}: a stopped run does not exit 0");
         assert!(!text.contains("panicked"), "{signal}: {text}");
-        let ck = w.dir.join(run).join("checkpoint.bin");
+        let ck = w.dir.join(run).join("checkpoint.safetensors");
         let (_, _, stopped) = model_of(&ck);
         assert!(stopped < 160, "{signal}: stopped early, at {stopped}");
         if signal == "-KILL" {
@@ -181,7 +181,7 @@ fn interrupted_runs_resume_bit_for_bit() {
         String::from_utf8_lossy(&forced.stderr)
     );
     assert_eq!(
-        model_of(&w.dir.join("int/checkpoint.bin")).2,
+        model_of(&w.dir.join("int/checkpoint.safetensors")).2,
         30,
         "a new run"
     );

@@ -427,7 +427,8 @@ fn a_short_run_lowers_the_loss_with_frames_cached_or_decoded_on_demand_alike() {
         l1.push(ra.losses.l1);
     }
     assert_eq!(
-        a.model.canonical.means, b.model.canonical.means,
+        a.model().canonical.means,
+        b.model().canonical.means,
         "same model"
     );
     let first: f64 = l1[..10].iter().sum::<f64>() / 10.0;
@@ -435,8 +436,8 @@ fn a_short_run_lowers_the_loss_with_frames_cached_or_decoded_on_demand_alike() {
     // As on the monocular scene (tests/training.rs), a quarter off within 90 iterations is a
     // clear, repeatable drop (measured: 0.073 -> 0.044).
     assert!(last < 0.75 * first, "L1 fell from {first:.4} to {last:.4}");
-    assert!(a.model.dynamics_active, "the dynamics were switched on");
-    let s = b.views.cache_stats();
+    assert!(a.model().dynamics_active, "the dynamics were switched on");
+    let s = b.views().cache_stats();
     assert!(
         s.evicted > 0 && s.peak_bytes <= 5 * frame_bytes,
         "40 frames through a 5-frame cache: {s:?}"

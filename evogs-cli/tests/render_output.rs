@@ -6,6 +6,7 @@
 mod common;
 
 use evogs_cli::app::Reporter;
+use evogs_cli::app::export::{SEQUENCE_FILE, Sequence, export, export_sequence};
 use evogs_cli::app::interrupt;
 use evogs_cli::app::paths::shipped_scene;
 use evogs_cli::app::render::{CameraPath, FrameCameras, RenderArgs, path_cameras, render_sequence};
@@ -89,7 +90,7 @@ fn frames_stream_to_disk_and_an_interrupt_keeps_what_is_finished() {
     );
 
     // An orbit for a hundred million frames is a formula, not a list.
-    let l = checkpoint::load_model(&run.join("checkpoint.bin")).expect("model");
+    let l = checkpoint::load_model(&run.join("checkpoint.safetensors")).expect("model");
     let ds = evogs_cli::app::load::load_dataset(&shipped_scene(), &l.cfg, false).expect("data");
     let cams = path_cameras(&CameraPath::Orbit, &ds, &l.model, 100_000_000).expect("orbit");
     assert!(matches!(cams, FrameCameras::Orbit(_)));
@@ -98,5 +99,45 @@ fn frames_stream_to_disk_and_an_interrupt_keeps_what_is_finished() {
         cams.get(99_999_999).expect("pose"),
     );
     assert!(c0 != c_last, "distinct poses along the orbit");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn an_exported_sequence_matches_single_exports_and_lists_its_files() {
+    let dir = common::scratch("export-seq");
+    let run = common::tiny_run(&dir);
+    let out = dir.join("seq");
+    let seq = export_sequence(&run, (-0.25, 1.25, 3), &out, &mut InterruptAt(0)).expect("sequence");
+    assert_eq!(
+        seq.files,
+        ["frame_0000.ply", "frame_0001.ply", "frame_0002.ply"]
+    );
+    assert_eq!(seq.times, [-0.25, 0.5, 1.25]);
+    let index: Sequence =
+        serde_json::from_str(&std::fs::read_to_string(out.join(SEQUENCE_FILE)).expect("index"))
+            .expect("json");
+    assert_eq!(index, seq, "sequence.json lists the files and times");
+    for (file, &t) in seq.files.iter().zip(&seq.times) {
+        let single = dir.join("single.ply");
+        let n = export(&run, t, &single).expect("single export");
+        assert_eq!(n, seq.gaussians);
+        assert_eq!(
+            std::fs::read(out.join(file)).expect("frame"),
+            std::fs::read(&single).expect("single"),
+            "{file}: the same bytes as `export --time {t}`"
+        );
+    }
+    let cut = dir.join("cut");
+    let e = export_sequence(&run, (0.0, 1.0, 4), &cut, &mut InterruptAt(1))
+        .expect_err("interrupted")
+        .to_string();
+    assert!(
+        e.contains("interrupted: 1 of 4") && e.contains(SEQUENCE_FILE),
+        "{e}"
+    );
+    assert!(
+        !cut.join(SEQUENCE_FILE).exists(),
+        "no index for an incomplete sequence"
+    );
     std::fs::remove_dir_all(dir).ok();
 }

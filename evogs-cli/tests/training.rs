@@ -84,8 +84,8 @@ fn a_short_run_lowers_the_loss_clearly() {
     // start well below a blank image's error; a quarter off within 90 iterations at 50×50 is
     // a clear, repeatable drop (measured: 0.073 → 0.047).
     assert!(last < 0.75 * first, "L1 fell from {first:.4} to {last:.4}");
-    assert!(t.model.dynamics_active, "the dynamics were switched on");
-    assert!(t.log.iter().all(|r| r.loss.is_finite()), "finite log");
+    assert!(t.model().dynamics_active, "the dynamics were switched on");
+    assert!(t.log().iter().all(|r| r.loss.is_finite()), "finite log");
 }
 
 #[test]
@@ -95,11 +95,11 @@ fn a_batched_run_lowers_the_loss_and_densifies() {
     c.schedule.iterations = 60;
     c.schedule.curriculum_iters = 10;
     let mut t = trainer(c);
-    let n0 = t.model.len();
+    let n0 = t.model().len();
     let (first, last) = first_and_last_l1(&mut t);
     assert!(last < 0.75 * first, "L1 fell from {first:.4} to {last:.4}");
     assert!(
-        t.model.dynamics_active && t.model.len() != n0,
+        t.model().dynamics_active && t.model().len() != n0,
         "dynamics on, densified"
     );
 }
@@ -113,38 +113,39 @@ fn resume_continues_bit_for_bit() {
     let (views, pos, col) = data(&c);
     let dir = std::env::temp_dir().join(format!("evogs-resume-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");
-    let ck = dir.join("checkpoint.bin");
+    let ck = dir.join("checkpoint.safetensors");
     let mut a = Trainer::new(c.clone(), views.clone(), Some((&pos, Some(&col)))).expect("trainer");
     while !a.finished() {
         a.step().expect("step");
-        if a.iteration == 41 {
+        if a.iteration() == 41 {
             checkpoint::save(&a, &ck).expect("save");
         }
     }
     let mut b = checkpoint::resume(&ck, views).expect("resume");
-    assert_eq!(b.iteration, 41, "resumed iteration");
+    assert_eq!(b.iteration(), 41, "resumed iteration");
     while !b.finished() {
         b.step().expect("step");
     }
     assert_eq!(
-        a.model.canonical, b.model.canonical,
+        a.model().canonical,
+        b.model().canonical,
         "canonical Gaussians identical"
     );
-    assert_eq!(a.model.anchors, b.model.anchors, "anchors identical");
+    assert_eq!(a.model().anchors, b.model().anchors, "anchors identical");
     assert!(
-        a.model.field.params() == b.model.field.params(),
+        a.model().field.params() == b.model().field.params(),
         "field identical"
     );
-    assert_eq!(a.optim, b.optim, "optimiser identical");
+    assert_eq!(a.optimizer(), b.optimizer(), "optimiser identical");
     assert_eq!(
-        a.log.last().map(|r| r.loss.to_bits()),
-        b.log.last().map(|r| r.loss.to_bits()),
+        a.log().last().map(|r| r.loss.to_bits()),
+        b.log().last().map(|r| r.loss.to_bits()),
         "same final loss"
     );
     // Round trip of the archive itself.
     checkpoint::save(&b, &ck).expect("save");
     let l = checkpoint::load_model(&ck).expect("load");
-    assert_eq!(l.model.canonical, b.model.canonical, "model round trip");
+    assert_eq!(l.model.canonical, b.model().canonical, "model round trip");
     std::fs::remove_dir_all(dir).ok();
 }
 
@@ -160,10 +161,10 @@ fn checkpoints_refuse_non_finite_values_both_ways() {
     t.step().expect("step");
     let dir = std::env::temp_dir().join(format!("evogs-nan-ckpt-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");
-    let ck = dir.join("checkpoint.bin");
+    let ck = dir.join("checkpoint.safetensors");
     checkpoint::save(&t, &ck).expect("a finite model saves");
     let good = std::fs::read(&ck).expect("saved");
-    t.model.canonical.means[7] = evogs_math::Vec3::new(f32::NAN, 0.0, 0.0);
+    t.model_mut().canonical.means[7] = evogs_math::Vec3::new(f32::NAN, 0.0, 0.0);
     let e = checkpoint::save(&t, &ck).expect_err("NaN mean").to_string();
     assert!(
         e.contains("canonical.means") && e.contains("not finite"),
@@ -197,7 +198,7 @@ fn checkpoints_written_with_the_removed_searches_still_resume() {
     t.step().expect("step");
     let dir = std::env::temp_dir().join(format!("evogs-old-ckpt-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");
-    let ck = dir.join("checkpoint.bin");
+    let ck = dir.join("checkpoint.safetensors");
     checkpoint::save(&t, &ck).expect("save");
     let mut ar = evogs_cli::run::archive::Archive::read(&ck).expect("archive");
     let cfg = ar.meta["config"]
@@ -208,11 +209,15 @@ fn checkpoints_written_with_the_removed_searches_still_resume() {
         format!("{cfg}\n[spin_search]\nat_iter = 2000\n\n[orbit_search]\nat_iter = 2\n").into();
     ar.put_u64("orbit_bodies", &[0.45f64, 0.4, 0.05, 0.2].map(f64::to_bits));
     ar.write(&ck).expect("write");
-    let back = checkpoint::resume(&ck, t.views.clone()).expect("an old checkpoint resumes");
-    assert_eq!(back.cfg, t.cfg, "configuration without the search tables");
+    let back = checkpoint::resume(&ck, t.views().clone()).expect("an old checkpoint resumes");
     assert_eq!(
-        (back.iteration, &back.model.canonical),
-        (t.iteration, &t.model.canonical),
+        back.cfg(),
+        t.cfg(),
+        "configuration without the search tables"
+    );
+    assert_eq!(
+        (back.iteration(), &back.model().canonical),
+        (t.iteration(), &t.model().canonical),
         "same run"
     );
     std::fs::remove_dir_all(dir).ok();
@@ -236,7 +241,7 @@ fn densification_window_excludes_until_iter() {
     while !t.finished() {
         let r = t.step().expect("finite step");
         let max_logit = t
-            .model
+            .model()
             .canonical
             .opacity_logits
             .iter()
@@ -269,8 +274,8 @@ fn curriculum_window_grows_and_initialises_anchors_on_arrival() {
     c.dynamics.anchors = 3;
     c.densify.from_iter = 1000;
     let mut t = trainer(c);
-    let (t0, t1) = t.time_range;
-    let last_anchor_time = *t.model.anchor_times.last().expect("anchors");
+    let (t0, t1) = t.time_range();
+    let last_anchor_time = *t.model().anchor_times.last().expect("anchors");
     let mut before: Option<Vec<evogs_math::Vec3<f32>>> = None;
     let mut latest = f64::NEG_INFINITY;
     let mut reached_at = None;
@@ -291,9 +296,9 @@ fn curriculum_window_grows_and_initialises_anchors_on_arrival() {
         }
         assert!(hi >= t.time_window_end(it - 1), "the window never shrinks");
         latest = latest.max(r.view_time);
-        let last = t.model.anchors.last().expect("anchor").means.clone();
+        let last = t.model().anchors.last().expect("anchor").means.clone();
         // (The dynamics start by setting every anchor from the canonical state.)
-        if t.model.dynamics_active && !r.dynamics_started && reached_at.is_none() {
+        if t.model().dynamics_active && !r.dynamics_started && reached_at.is_none() {
             if hi + 1e-9 < last_anchor_time {
                 assert!(
                     before.as_ref() == Some(&last),
@@ -320,10 +325,10 @@ fn curriculum_window_grows_and_initialises_anchors_on_arrival() {
     );
     // Re-initialising an anchor from the one before it closes that segment's gap.
     let mut stepper = None;
-    let mut grad = t.model.zero_grad();
-    let gap = t.model.anchor_loss(1, 1.0, &mut stepper, &mut grad);
-    t.model.refresh_anchor_from_previous(2, &mut stepper);
-    let closed = t.model.anchor_loss(1, 1.0, &mut stepper, &mut grad);
+    let mut grad = t.model().zero_grad();
+    let gap = t.model_mut().anchor_loss(1, 1.0, &mut stepper, &mut grad);
+    t.model_mut().refresh_anchor_from_previous(2, &mut stepper);
+    let closed = t.model_mut().anchor_loss(1, 1.0, &mut stepper, &mut grad);
     assert!(
         gap > 0.0 && closed < 1e-12,
         "anchor gap {gap:e} → {closed:e}"

@@ -1,7 +1,7 @@
 //! The 3D covariance of a Gaussian from its log-scale and raw quaternion, with its VJP.
 //!
 //! `Σ = R(q/|q|)·diag(exp(2ŝ))·R(q/|q|)ᵀ = M Mᵀ` with `M = R·diag(exp(ŝ))`
-//! (splatting.md A.3). The gradient is taken with respect to the **stored** parameters:
+//! (`docs/splatting.md` §3). The gradient is taken with respect to the **stored** parameters:
 //! the log-scale ŝ and the raw (unnormalised) quaternion q, so the quaternion gradient
 //! includes the normalisation and is orthogonal to q.
 

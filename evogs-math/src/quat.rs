@@ -163,7 +163,7 @@ impl<T: Real> Quat<T> {
     pub fn rotate_inv(self, v: Vec3<T>) -> Vec3<T> {
         self.conj().rotate(v)
     }
-    /// The rotation matrix of this **unit** quaternion (splatting.md A.2).
+    /// The rotation matrix of this **unit** quaternion (`docs/lie-groups.md` §1).
     #[must_use]
     pub fn to_rotation_matrix(self) -> Mat3<T> {
         let (w, x, y, z) = (self.w, self.x, self.y, self.z);
@@ -239,7 +239,7 @@ pub fn rotation_from_raw<T: Real>(q: Quat<T>) -> Mat3<T> {
 
 /// VJP of [`rotation_from_raw`]: given `d_r = ∂L/∂R`, returns `∂L/∂q` for the raw `q`.
 ///
-/// First the adjoint with respect to the unit quaternion q̄ (splatting.md A.2), then through
+/// First the adjoint with respect to the unit quaternion q̄ (`docs/splatting.md` §2), then through
 /// the normalisation: `dq = (dq̄ − (dq̄·q̄) q̄)/|q|`, which is orthogonal to `q`.
 ///
 /// ```

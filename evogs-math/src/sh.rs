@@ -2,7 +2,7 @@
 //!
 //! Coefficients are stored `coeffs[k][channel]`, `k < (degree + 1)²`, DC first, in the
 //! order used by gsplat, 3DGS and the `.ply` files. The basis (x, y, z = the unit view
-//! direction d̂, splatting.md A.10):
+//! direction d̂, `docs/splatting.md` §10):
 //!
 //! ```text
 //! Y0 = C0
@@ -95,7 +95,8 @@ pub fn sh_basis<T: Real>(degree: usize, d: Vec3<T>, out: &mut [T; MAX_SH_COEFFS]
 }
 
 /// `Σ_k w_k ∇Y_k(d)`: the gradient of a weighted basis sum with respect to the (unit)
-/// direction's components, using the analytic derivatives of the table in splatting.md A.10.
+/// direction's components, using the analytic derivatives of the table in `docs/splatting.md`
+/// §10.
 pub fn sh_basis_grad<T: Real>(degree: usize, d: Vec3<T>, w: &[T; MAX_SH_COEFFS]) -> Vec3<T> {
     let c = |v: f64| T::from_f64(v);
     let (x, y, z) = (d.x, d.y, d.z);

@@ -3,7 +3,7 @@
 //! All take **θ² = |φ|²**, never θ: the derivative of √(θ²) is infinite at 0, so a branch
 //! written in θ would give NaN derivatives with dual numbers at the identity. Each
 //! function switches to a truncated Taylor series below a threshold chosen for *that*
-//! function (ode-lie.md 2.5), such that both branches are accurate to about 1e-16 relative
+//! function (`docs/lie-groups.md` §6), such that both branches are accurate to about 1e-16 relative
 //! in f64 at the switch:
 //!
 //! | function | closed form | series below | terms | cancellation of the closed form |

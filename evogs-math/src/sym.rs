@@ -4,7 +4,8 @@
 //! respect to the six *stored* numbers, where each off-diagonal number appears twice in the
 //! full matrix. If `G` is the adjoint of the full 3×3 matrix, the stored adjoint is
 //! `xx = G₀₀`, `xy = G₀₁ + G₁₀`, … ([`Sym3::from_full_adjoint`]). Mixing this up with the
-//! per-entry convention is the classic factor-2 bug of splatting code (splatting.md A.3, A.8).
+//! per-entry convention is the classic factor-2 bug of splatting code (`docs/splatting.md` §3
+//! and §8).
 
 use crate::{Mat2, Mat3, Real, Vec2, Vec3};
 

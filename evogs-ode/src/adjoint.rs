@@ -13,11 +13,11 @@ use evogs_math::Real;
 /// transposed algebra, so the result is the gradient of what the forward solver computed,
 /// up to rounding (not an approximation of the gradient of the exact flow). For Runge–Kutta
 /// methods with positive weights this gradient is also an approximation of the exact one,
-/// of the method's order (Hager 2000; ode-lie.md §2.2).
+/// of the method's order (Hager 2000; `docs/integrators.md` §4).
 ///
 /// States are taken from the [`Trajectory`]: directly with `StoreAll`, or, with
 /// `Every(k)`, by recomputing each k-step segment forward from its checkpoint into a
-/// k-state buffer (the two-level √N scheme of ode-lie.md §2.4). Both give bitwise
+/// k-state buffer (the two-level √N scheme of `docs/integrators.md` §5). Both give bitwise
 /// identical results.
 ///
 /// - `d_final = ∂L/∂y_N` (tangent coordinates; SO(3) blocks: left-perturbation

@@ -148,6 +148,21 @@ impl<T: Real, F: VectorField<T> + ?Sized> VectorField<T> for Augmented<'_, T, F>
 /// assert!((r.d_y0[0] - (-0.5_f64).exp()).abs() < 1e-9);
 /// assert!(r.reconstruction_error.unwrap() < 1e-9);
 /// ```
+///
+/// On dissipative dynamics the re-integrating variant loses `x(t0)`, and with it every
+/// gradient; [`ContinuousAdjoint::reconstruction_error`] says so (the stress test of
+/// `docs/integrators.md` §7.9):
+///
+/// ```
+/// use evogs_ode::{ContinuousVariant, Method, TimeGrid, continuous_adjoint};
+/// use evogs_ode::problems::DissipativePair; // x₁' = −50x₁ + …
+/// let mut f = DissipativePair::default();
+/// let (x0, c) = (DissipativePair::initial_state(), DissipativePair::loss_weights());
+/// let grid = TimeGrid::uniform(0.0, 1.0, 40);
+/// let back = continuous_adjoint(&mut f, Method::Rk4, &grid, &x0, &c, ContinuousVariant::Reintegrate)
+///     .unwrap();
+/// assert!(back.reconstruction_error.unwrap() > 1e10); // x(0) is lost: gradients are garbage
+/// ```
 pub fn continuous_adjoint<T: Real, F: VectorField<T> + ?Sized>(
     field: &mut F,
     method: Method,

@@ -13,7 +13,7 @@
 //! finest successive orders there, extends the "clean range" toward coarser steps while
 //! the successive orders stay within a tolerance of it, and least-squares fits the slope of
 //! `log e` against `log h` over that range. Fitting one slope over everything is what
-//! misreads slow pre-asymptotics (ode-lie.md §3: Kutta3 on `y' = cos(t)y` fits 3.40 over
+//! misreads slow pre-asymptotics (`docs/integrators.md` §8; Kutta3 on `y' = cos(t)y` fits 3.40 over
 //! the whole range, while the successive orders settle at 3.00).
 
 use crate::problems::ExactProblem;

@@ -1,7 +1,7 @@
 //! Explicit Runge–Kutta tableaux with exact rational entries, their order conditions and
 //! stability polynomials.
 //!
-//! An explicit s-stage method (ode-lie.md §2.1) steps from `(tₙ, yₙ)` with step `h`:
+//! An explicit s-stage method (`docs/integrators.md` §2) steps from `(tₙ, yₙ)` with step `h`:
 //!
 //! ```text
 //! Xᵢ = yₙ + h Σ_{j<i} a_ij Kⱼ,   Kᵢ = f(tₙ + cᵢh, Xᵢ),   y_{n+1} = yₙ + h Σᵢ bᵢKᵢ
@@ -396,7 +396,7 @@ mod tests {
 
     #[test]
     fn the_fake_rk4_is_caught_by_the_exact_conditions() {
-        // ode-lie.md §2.1: RK4's stability polynomial, but Σbc² = 1/2: order 2.
+        // docs/integrators.md §2: RK4's stability polynomial, but Σbc² = 1/2: order 2.
         let fake = Tableau::new(
             "fake-rk4",
             &[Z, r(1, 1), Z, r(1, 1)],

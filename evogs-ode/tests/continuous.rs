@@ -47,7 +47,7 @@ fn max_rel(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// ode-lie.md §4.10: with a −50 decay mode, re-integrating x backward amplifies every
+/// docs/integrators.md §7.9: with a −50 decay mode, re-integrating x backward amplifies every
 /// error like e^{50}: the backsolve reconstruction of x(0) and its gradients are garbage,
 /// the checkpoint variant is O(h⁴)-close to the discrete gradient, and the discrete
 /// adjoint matches central differences.

@@ -1,4 +1,4 @@
-//! Measured convergence orders on problems with exact solutions (ode-lie.md §4).
+//! Measured convergence orders on problems with exact solutions (`docs/integrators.md` §7).
 
 //!
 //! Each method must show its nominal order within 0.15 on nonlinear, non-autonomous and
@@ -100,7 +100,7 @@ fn rkmk_orders_on_the_propelled_top_on_se3_times_r3() {
     check_orders(&mut PropelledTop::default(), &Method::ALL);
 }
 
-/// The fake tableau of ode-lie.md §2.1: RK4's stability polynomial, but order 2.
+/// The fake tableau of `docs/integrators.md` §2: RK4's stability polynomial, but order 2.
 fn fake_rk4() -> Tableau {
     let (z, one) = (R::ZERO, R::ONE);
     Tableau::new(

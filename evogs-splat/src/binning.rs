@@ -1,7 +1,7 @@
 //! Tile binning for the tiled rasterizer: which Gaussians touch which 16×16 tile, in
 //! compositing order ([`Binning`]).
 //!
-//! # Tile range (splatting.md A.9, gsplat `isect_tiles`)
+//! # Tile range (`docs/splatting.md` §9, gsplat `isect_tiles`)
 //!
 //! ```text
 //! tiles_x = ceil(W/16),  tiles_y = ceil(H/16)
@@ -38,9 +38,6 @@ use evogs_math::{Real, Vec2};
 
 /// Tile side in pixels.
 pub const TILE_SIZE: usize = 16;
-/// Pixels per tile.
-pub const TILE_PIXELS: usize = TILE_SIZE * TILE_SIZE;
-
 /// The tiles of a `width × height` image (the last column and row of tiles may be partial).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TileGrid {

@@ -1,5 +1,5 @@
 //! View-dependent colour from spherical harmonics: [`sh_color`] and [`sh_color_vjp`]
-//! (splatting.md A.10).
+//! (`docs/splatting.md` §10).
 //!
 //! ```text
 //! d = μ − c_cam,   d̂ = d/|d|              (c_cam = −Rᵀ t, the camera centre)

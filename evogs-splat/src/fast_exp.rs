@@ -82,7 +82,7 @@ fn mul_add(a: f64, b: f64, c: f64) -> f64 {
 /// `f64` to ~10⁻¹¹ relative, then rounded to `f32`.
 #[inline(always)]
 #[must_use]
-pub fn exp_f32_fast(x: f32) -> f32 {
+pub(crate) fn exp_f32_fast(x: f32) -> f32 {
     #[allow(
         clippy::manual_clamp,
         reason = "max/min map a NaN to a finite value (the callers mask such lanes with a \

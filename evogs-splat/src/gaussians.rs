@@ -1,5 +1,6 @@
 //! The trainable Gaussian parameters [`Splats`] (struct of arrays) and their gradient
-//! [`SplatsGrad`], with the benchmark scene of the performance notes.
+//! [`SplatsGrad`], with the benchmark scene of the performance notes
+//! (`docs/architecture.md` §6).
 //!
 //! Parameters are the **raw** training parameters; the activations are applied when the
 //! Gaussians are projected and shaded:
@@ -227,9 +228,10 @@ impl<T: Real> Splats<T> {
     }
 }
 
-/// The benchmark scene of the performance notes: `n` Gaussians uniform in the cube
-/// `[−0.5, 0.5]³`, log-uniform scales in `[0.01, 0.03]`, opacities uniform in `[0.5, 0.9]`,
-/// random unit quaternions, SH degree 3 (random DC colour, higher coefficients ~ N(0, 0.05²));
+/// The benchmark scene of the performance notes (`docs/architecture.md` §6): `n` Gaussians
+/// uniform in the cube `[−0.5, 0.5]³`, log-uniform scales in `[0.01, 0.03]`, opacities
+/// uniform in `[0.5, 0.9]`, random unit quaternions, SH degree 3 (random DC colour, higher
+/// coefficients ~ N(0, 0.05²));
 /// the camera at distance 4 on the +z axis looking at the origin, 40° horizontal field of
 /// view, `size × size` pixels. Seeded and deterministic. ([`random_scene`] with those
 /// ranges.)

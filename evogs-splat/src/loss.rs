@@ -37,46 +37,8 @@
 
 use crate::Image;
 use crate::ssim::SsimWorkspace;
+use crate::sum::{CHUNK, chunked_sum};
 use evogs_math::{Par, Real};
-
-/// Values per chunk of the two-level summation.
-const CHUNK: usize = 1024;
-/// Independent accumulators inside a chunk.
-const LANES: usize = 8;
-
-/// `Σ f(a_i, b_i)` in lanes of 8 over chunks of 1024, chunks added in order.
-#[inline]
-pub(crate) fn chunked_sum<T: Real>(a: &[T], b: &[T], f: impl Fn(T, T) -> T) -> T {
-    let mut total = T::ZERO;
-    for (ca, cb) in a.chunks(CHUNK).zip(b.chunks(CHUNK)) {
-        let mut acc = [T::ZERO; LANES];
-        let mut ia = ca.chunks_exact(LANES);
-        let mut ib = cb.chunks_exact(LANES);
-        for (xa, xb) in (&mut ia).zip(&mut ib) {
-            for l in 0..LANES {
-                acc[l] += f(xa[l], xb[l]);
-            }
-        }
-        let mut s = reduce_lanes(&acc);
-        for (&x, &y) in ia.remainder().iter().zip(ib.remainder()) {
-            s += f(x, y);
-        }
-        total += s;
-    }
-    total
-}
-
-/// `Σ x_i` with the same lane and chunk order as [`chunked_sum`].
-#[inline]
-pub(crate) fn lane_sum<T: Real>(xs: &[T]) -> T {
-    chunked_sum(xs, xs, |x, _| x)
-}
-
-/// Pairwise sum of the eight lanes.
-#[inline]
-fn reduce_lanes<T: Real>(acc: &[T; LANES]) -> T {
-    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]))
-}
 
 /// `sign(d)` with `sign(0) = 0` (the subgradient used at the kink of `|d|`).
 #[inline]
@@ -118,7 +80,7 @@ fn check_grad<T: Real>(a: &Image<T>, d_a: &Image<T>) {
 }
 
 /// Adds `grad(a_i − b_i)` into `d_a` and returns `Σ value(a_i − b_i)`, summed in the order
-/// of [`chunked_sum`].
+/// of [`chunked_sum`](crate::sum::chunked_sum).
 ///
 /// Per chunk, the gradient is a plain element-wise loop (branch-free selects after
 /// vectorisation) and the value a lane sum over the same, cache-resident chunk.

@@ -1,7 +1,8 @@
 //! EWA projection of one 3D Gaussian to the image plane: [`project`] (its VJP is in
 //! [`project_vjp`](crate::project_vjp::project_vjp)).
 //!
-//! The conventions are those of gsplat 1.5.3 (`_fully_fused_projection`, splatting.md A.4–A.9):
+//! The conventions are those of gsplat 1.5.3 (`_fully_fused_projection`; `docs/splatting.md`
+//! §4–§9):
 //!
 //! ```text
 //! t = R μ + t_v                              camera-space mean, depth = t_z

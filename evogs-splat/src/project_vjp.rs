@@ -1,4 +1,4 @@
-//! The VJP of the EWA projection, [`project_vjp`] (splatting.md A.2–A.8).
+//! The VJP of the EWA projection, [`project_vjp`] (`docs/splatting.md` §13).
 //!
 //! With `dX := ∂L/∂X` and full-matrix (symmetric) adjoints of the 2×2 and 3×3 matrices:
 //!

@@ -1,4 +1,5 @@
-//! The backward pass of the reference rasterizer, [`rasterize_ref_vjp`] (splatting.md A.12).
+//! The backward pass of the reference rasterizer, [`rasterize_ref_vjp`] (`docs/splatting.md`
+//! §12).
 //!
 //! Per pixel with contributors i = 1…n (front to back), `T_i = Π_{j<i}(1 − α_j)`,
 //! `C = Σ c_i α_i T_i + T_f·bg`, `A = 1 − T_f`, `D = Σ z_i α_i T_i`, `E = D/max(1 − T_f, 1e-10)`,

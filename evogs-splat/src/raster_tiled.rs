@@ -49,6 +49,10 @@ use crate::tile_lanes::{
 use alloc::vec::Vec;
 use evogs_math::{Par, Real};
 
+/// Scalars of one entry's partial gradient: 2D mean (2), conic (3), colour (3), opacity,
+/// depth.
+pub(crate) const ENTRY_GRAD_LEN: usize = 10;
+
 /// Per-pixel compositing state of one tile, group-major (see
 /// [`group_lane`](crate::tile_lanes::group_lane)).
 #[derive(Clone, Debug)]
@@ -113,7 +117,7 @@ pub struct TiledRasterizer<T> {
     scratch: Vec<TileSplat<T>>,
     tiles: Vec<TileState<T>>,
     /// Per-entry partial gradients (backward).
-    pub(crate) entry_grads: Vec<[T; crate::raster_tiled_vjp::ENTRY_GRAD_LEN]>,
+    pub(crate) entry_grads: Vec<[T; ENTRY_GRAD_LEN]>,
 }
 
 impl<T: Real> TiledRasterizer<T> {

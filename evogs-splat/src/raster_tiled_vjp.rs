@@ -1,7 +1,7 @@
 //! The backward pass of the tiled rasterizer, [`TiledRasterizer::backward`], and the
 //! per-view densification statistics [`DensifyStats`].
 //!
-//! The formulas are those of [`raster_ref_vjp`](crate::raster_ref_vjp) (splatting.md A.12);
+//! The formulas are those of [`raster_ref_vjp`](crate::raster_ref_vjp) (`docs/splatting.md` §12);
 //! the per-pixel terms are summed in another order (per group and lane, then per tile
 //! entry, then per Gaussian).
 //!
@@ -45,17 +45,13 @@ use crate::fast_exp::ExpMode;
 use crate::preprocess::{Preprocessed, RasterInputGrad};
 use crate::raster_ref::{DEPTH_DENOM_MIN, RasterOutput};
 use crate::raster_ref_vjp::PixelGrad;
-use crate::raster_tiled::TiledRasterizer;
+use crate::raster_tiled::{ENTRY_GRAD_LEN, TiledRasterizer};
 use crate::tile_lanes::{
     GROUPS, GROUPS_X, LANES, TileLanes, TileSplat, eval_lane, for_each_item, group_lane,
     group_sigma, lane_centres, lane_sum, select,
 };
 use alloc::vec::Vec;
 use evogs_math::{Par, Real, Vec2};
-
-/// Scalars of one entry's partial gradient: 2D mean (2), conic (3), colour (3), opacity,
-/// depth.
-pub(crate) const ENTRY_GRAD_LEN: usize = 10;
 
 /// Per-view densification statistics (see the module docs), indexed by Gaussian.
 #[derive(Clone, Debug, Default, PartialEq)]

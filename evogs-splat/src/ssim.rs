@@ -51,7 +51,7 @@ mod filter;
 pub use filter::gaussian_window;
 
 use crate::Image;
-use crate::loss::lane_sum;
+use crate::sum::lane_sum;
 use alloc::vec::Vec;
 use evogs_math::{Par, Real};
 use filter::{hfilter, vfilter};

@@ -1,14 +1,18 @@
-//! `evogs export`: the Gaussians at time `t` as a standard 3DGS `.ply` (splatting.md D):
+//! `evogs export`: the Gaussians at time `t` as a standard 3DGS `.ply` (`docs/splatting.md`
+//! §15):
 //! `x y z nx ny nz f_dc_0..2 f_rest_0..(3(K−1)−1) opacity scale_0..2 rot_0..3`, binary
 //! little-endian floats; `f_rest` channel-major (all R, then G, then B); opacity as a logit,
 //! scales as logs, rotations as raw (w, x, y, z).
 
 use super::error::CommandError;
 use super::paths::RunFolder;
+use super::render::frame_time;
+use super::{Reporter, interrupt};
 use crate::data::ply::PlyTable;
+use crate::model::Model;
 use crate::run::checkpoint;
 use evogs_splat::Splats;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The 3DGS property table of a set of Gaussians.
 #[must_use]
@@ -51,14 +55,18 @@ pub fn gaussians_table(s: &Splats<f32>) -> PlyTable {
     }
 }
 
-/// Runs `evogs export`.
+fn load(run: &Path) -> Result<Model<f32>, CommandError> {
+    checkpoint::load_model(&RunFolder::new(run).checkpoint())
+        .map(|l| l.model)
+        .map_err(CommandError::from_display)
+}
+
+/// Runs `evogs export --time T`: the Gaussians at `t` into one `.ply`; returns their count.
 ///
 /// # Errors
-/// Unreadable run or unwritable output.
+/// Unreadable run, a time out of reach, or unwritable output.
 pub fn export(run: &Path, t: f64, out: &Path) -> Result<usize, CommandError> {
-    let l = checkpoint::load_model(&RunFolder::new(run).checkpoint())
-        .map_err(CommandError::from_display)?;
-    let mut model = l.model;
+    let mut model = load(run)?;
     model
         .check_time(t)
         .map_err(|e| CommandError(format!("--time: {e}")))?;
@@ -69,4 +77,74 @@ pub fn export(run: &Path, t: f64, out: &Path) -> Result<usize, CommandError> {
         .write_binary(out)
         .map_err(|e| CommandError(format!("{}: cannot write: {e}", out.display())))?;
     Ok(s.len())
+}
+
+/// What `evogs export --times` wrote.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Sequence {
+    /// The `.ply` files, relative to the folder (`frame_0000.ply`, ...).
+    pub files: Vec<String>,
+    /// The time of each file.
+    pub times: Vec<f64>,
+    /// Gaussians per file.
+    pub gaussians: usize,
+}
+
+/// The name of the index file `export_sequence` writes beside the frames.
+pub const SEQUENCE_FILE: &str = "sequence.json";
+
+/// Runs `evogs export --times A:B:N --out DIR`: one 3DGS `.ply` per time (`frame_NNNN.ply`,
+/// the sequence viewers such as `SuperSplat` import) and `sequence.json` listing the files and
+/// their times, every file written atomically; the index comes last, so a folder with an
+/// index holds the whole sequence. An interrupt stops after the current file.
+///
+/// # Errors
+/// Unreadable run, times out of reach, an unwritable folder, or an interrupt.
+pub fn export_sequence(
+    run: &Path,
+    times: (f64, f64, usize),
+    out: &Path,
+    rep: &mut dyn Reporter,
+) -> Result<Sequence, CommandError> {
+    let mut model = load(run)?;
+    for t in [times.0, times.1] {
+        model
+            .check_time(t)
+            .map_err(|e| CommandError(format!("--times: {e}")))?;
+    }
+    std::fs::create_dir_all(out)
+        .map_err(|e| CommandError(format!("{}: cannot create: {e}", out.display())))?;
+    let n = times.2;
+    let mut seq = Sequence {
+        files: Vec::with_capacity(n),
+        times: Vec::with_capacity(n),
+        gaussians: model.len(),
+    };
+    let mut s = Splats::default();
+    let mut stepper = None;
+    rep.start("export", n as u64);
+    for i in 0..n {
+        if interrupt::requested() {
+            interrupt::clear();
+            return Err(CommandError(format!(
+                "interrupted: {i} of {n} files written to {}; no {SEQUENCE_FILE}",
+                out.display()
+            )));
+        }
+        let t = frame_time(times, i);
+        let _tape = model.splats_at(t, &mut stepper, &mut s);
+        let name = format!("frame_{i:04}.ply");
+        let path: PathBuf = out.join(&name);
+        gaussians_table(&s)
+            .write_binary(&path)
+            .map_err(|e| CommandError(format!("{}: cannot write: {e}", path.display())))?;
+        seq.files.push(name);
+        seq.times.push(t);
+        rep.progress(i as u64 + 1, &format!("t = {t:.3}"));
+    }
+    rep.finish();
+    let json = serde_json::to_string_pretty(&seq).unwrap_or_default();
+    crate::atomic::write_atomic_named(&out.join(SEQUENCE_FILE), json.as_bytes())
+        .map_err(CommandError)?;
+    Ok(seq)
 }

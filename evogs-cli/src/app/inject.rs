@@ -1,5 +1,5 @@
-//! `evogs inject`: motion editing by vector-field algebra (design.md section 3, method.md
-//! section 10). Inside a mask the learned velocity field is replaced by an injected one:
+//! `evogs inject`: motion editing by vector-field algebra (`docs/method.md` §9). Inside a mask
+//! the learned velocity field is replaced by an injected one:
 //!
 //! ```text
 //! v'(x, t) = λ(x)·v_inj(x, t) + (1 − λ(x))·v_θ(x, t)

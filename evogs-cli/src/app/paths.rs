@@ -22,9 +22,28 @@ impl RunFolder {
     pub fn config(&self) -> PathBuf {
         self.dir.join("config.toml")
     }
-    /// The latest checkpoint.
+    /// The checkpoint to read: `checkpoint.safetensors`, or the first format's
+    /// `checkpoint.bin` of an older run when only that one is there (its path is returned
+    /// whether or not the file exists, so errors name the file expected).
     #[must_use]
     pub fn checkpoint(&self) -> PathBuf {
+        let current = self.checkpoint_to_write();
+        let legacy = self.legacy_checkpoint();
+        if !current.is_file() && legacy.is_file() {
+            legacy
+        } else {
+            current
+        }
+    }
+    /// Where checkpoints are written: `checkpoint.safetensors` (docs/checkpoints.md).
+    #[must_use]
+    pub fn checkpoint_to_write(&self) -> PathBuf {
+        self.dir.join("checkpoint.safetensors")
+    }
+    /// The checkpoint of runs written before checkpoints became safetensors files
+    /// (`checkpoint.bin`): still read, and removed once a newer checkpoint has been written.
+    #[must_use]
+    pub fn legacy_checkpoint(&self) -> PathBuf {
         self.dir.join("checkpoint.bin")
     }
     /// The training log (CSV).
@@ -62,7 +81,8 @@ impl RunFolder {
             let name = e.file_name().to_string_lossy().into_owned();
             let ours = matches!(
                 name.as_str(),
-                "checkpoint.bin"
+                "checkpoint.safetensors"
+                    | "checkpoint.bin"
                     | "config.toml"
                     | "data.txt"
                     | "log.csv"
@@ -98,15 +118,51 @@ impl RunFolder {
     }
 }
 
-/// The scene shipped in the repository (`data/toys-mini`): next to the working directory
-/// if run from the repository root, else next to this crate's sources.
+/// The shipped scene (`data/toys-mini`, 2.8 MB), embedded in the binary so that an installed
+/// `evogs` trains on it from any folder.
+static SHIPPED: include_dir::Dir<'static> =
+    include_dir::include_dir!("$CARGO_MANIFEST_DIR/../data/toys-mini");
+
+/// The shipped scene (`data/toys-mini`): in the working directory if run from the repository
+/// root, else beside this crate's sources if they are still there, else the copy embedded in
+/// the binary, written once to `evogs-VERSION/toys-mini` in the user's cache folder
+/// (`$XDG_CACHE_HOME`, `~/.cache`, or the temporary folder).
 #[must_use]
 pub fn shipped_scene() -> PathBuf {
     let local = PathBuf::from("data/toys-mini");
     if local.join("transforms_train.json").is_file() {
         return local;
     }
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/toys-mini")
+    let sources = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/toys-mini");
+    if sources.join("transforms_train.json").is_file() {
+        return sources;
+    }
+    let cache = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
+        .unwrap_or_else(std::env::temp_dir)
+        .join(format!("evogs-{}", env!("CARGO_PKG_VERSION")))
+        .join("toys-mini");
+    match extract_shipped(&cache) {
+        Ok(()) => cache,
+        // Loading will then name the missing folder.
+        Err(_) => sources,
+    }
+}
+
+/// Writes the embedded scene into `dir` unless a complete copy is there (the marker file is
+/// written last).
+///
+/// # Errors
+/// I/O failures.
+pub fn extract_shipped(dir: &Path) -> std::io::Result<()> {
+    let marker = dir.join(".complete");
+    if marker.is_file() {
+        return Ok(());
+    }
+    std::fs::create_dir_all(dir)?;
+    SHIPPED.extract(dir)?;
+    crate::atomic::write_atomic(&marker, env!("CARGO_PKG_VERSION").as_bytes())
 }
 
 /// The multi-view scene shipped in the repository (`data/toys-mv-mini`, N3DV layout), found

@@ -6,7 +6,7 @@ use super::load::load_dataset;
 use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
 use super::{Reporter, interrupt, plot};
-use crate::config::{Protocol, ScheduleConfig, TrainConfig};
+use crate::config::{Preset, Protocol, ScheduleConfig, TrainConfig};
 use crate::data::{DataFormat, Dataset, SplitName};
 use crate::eval::{SplitMetrics, evaluate};
 use crate::model::Motion;
@@ -16,37 +16,69 @@ use crate::train::views::{supervised_indices, training_frames};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// The arguments of `evogs train`.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// The options of `evogs train`: the command line's flags (clap) and a record that can be
+/// stored and read back (serde) are this one struct.
+#[derive(Clone, Debug, Default, PartialEq, clap::Args, serde::Serialize, serde::Deserialize)]
 pub struct TrainArgs {
-    /// Dataset folder (default: the shipped scene).
+    /// Dataset folder, D-NeRF or N3DV layout (default: data/toys-mini shipped with evogs).
+    #[arg(long)]
     pub data: Option<PathBuf>,
-    /// Run folder.
+    /// Run folder (config, checkpoints, log, curve, metrics, renders).
+    #[arg(long, default_value = "runs/latest")]
     pub out: PathBuf,
-    /// Configuration file overlaid on the preset.
+    /// TOML file overlaid on the preset (any subset of the fields of RUN/config.toml).
+    #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Preset (`fast` by default, or `paper`).
-    pub preset: Option<String>,
-    /// Motion override.
+    /// Preset: fast (default, sized for 2 CPU cores) or paper (the paper's D-NeRF settings).
+    #[arg(long)]
+    pub preset: Option<Preset>,
+    /// Dynamics: velocity (EvoGS, default), deformation (4DGS-style) or static (3DGS).
+    #[arg(long)]
     pub motion: Option<Motion>,
-    /// Protocol override.
+    /// Training protocol: full, sparse, future or backward.
+    #[arg(long)]
     pub protocol: Option<Protocol>,
-    /// Sparse-protocol stride override.
+    /// Stride of the sparse protocol (every k-th distinct training time).
+    #[arg(long)]
     pub stride: Option<usize>,
-    /// Future/backward split-time override.
+    /// Split time of the future/backward protocols.
+    #[arg(long)]
     pub split_time: Option<f64>,
-    /// Total-iterations override.
+    /// Total iterations (warm-up included). A new run's warm-up and temporal curriculum
+    /// are shortened to fit (a note says so); to stop early with the planned schedule,
+    /// set schedule.iterations in a --config file. With --resume: extends the run.
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
     pub iters: Option<u64>,
-    /// Seed override.
+    /// Random seed.
+    #[arg(long, allow_negative_numbers = true)]
     pub seed: Option<u64>,
-    /// Dataset layout override (`data.format`; default: recognised from the folder).
+    /// Dataset layout: auto (default: `transforms_train.json` is D-NeRF,
+    /// `poses_bounds.npy` is N3DV), dnerf or n3dv.
+    #[arg(long)]
     pub format: Option<DataFormat>,
-    /// Continue from the run folder's checkpoint.
+    /// Continue from the run folder's checkpoint, RUN/checkpoint.safetensors (with --iters to
+    /// extend the run).
+    #[arg(long, conflicts_with = "force")]
     pub resume: bool,
-    /// Replace a run already in the folder (its checkpoint, log, curve, metrics, renders).
+    /// Replace the run already in the folder (without it, training into a folder that holds
+    /// a checkpoint is refused).
+    #[arg(long)]
     pub force: bool,
-    /// Skip the final evaluation and GIF (tests).
+    /// Skip the final evaluation and GIF (tests, studies).
+    #[arg(skip)]
+    #[serde(default)]
     pub skip_outputs: bool,
+}
+
+/// A command-line count: a whole number of at least 1 (`--iters`, `--seeds`, `--jobs`).
+///
+/// # Errors
+/// Anything else, quoted.
+pub fn positive_count(s: &str) -> Result<u64, String> {
+    match s.trim().parse::<u64>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("`{s}` is not a whole number of at least 1")),
+    }
 }
 
 /// What a training run produced.
@@ -71,8 +103,7 @@ pub struct TrainOutcome {
 /// # Errors
 /// Unknown preset, unreadable or invalid file, invalid values.
 pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig, CommandError> {
-    let mut cfg =
-        TrainConfig::preset(args.preset.as_deref().unwrap_or("fast")).map_err(CommandError)?;
+    let mut cfg = TrainConfig::from_preset(args.preset.unwrap_or_default());
     if let Some(p) = &args.config {
         let text = std::fs::read_to_string(p)
             .map_err(|e| CommandError(format!("{}: cannot read: {e}", p.display())))?;
@@ -181,10 +212,20 @@ fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
 }
 
 fn save_all(t: &Trainer, run: &RunFolder) -> Result<(), CommandError> {
-    checkpoint::save(t, &run.checkpoint()).map_err(CommandError::from_display)?;
-    write_log(&t.log, &run.log())?;
-    if t.log.len() >= 2 {
-        plot::save_curve(&t.log, &run.curve()).map_err(CommandError)?;
+    checkpoint::save(t, &run.checkpoint_to_write()).map_err(CommandError::from_display)?;
+    // A resumed older run's `checkpoint.bin` is superseded by the file just written.
+    let legacy = run.legacy_checkpoint();
+    if legacy.is_file() {
+        std::fs::remove_file(&legacy).map_err(|e| {
+            CommandError(format!(
+                "{}: cannot remove the superseded checkpoint: {e}",
+                legacy.display()
+            ))
+        })?;
+    }
+    write_log(t.log(), &run.log())?;
+    if t.log().len() >= 2 {
+        plot::save_curve(t.log(), &run.curve()).map_err(CommandError)?;
     }
     Ok(())
 }
@@ -235,7 +276,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
     }
     if !args.resume && run.checkpoint().is_file() && !args.force {
         return Err(CommandError(format!(
-            "{}: the folder holds a trained run (checkpoint.bin); pass --resume to continue \
+            "{}: the folder holds a trained run (a checkpoint); pass --resume to continue \
              it or --force to replace it",
             run.dir.display()
         )));
@@ -299,7 +340,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         .map_err(|e| CommandError(format!("{}: {e}", run.data_ref().display())))?;
     let mut t = if resuming {
         let t = checkpoint::resume(&run.checkpoint(), views).map_err(CommandError::from_display)?;
-        rep.info(&format!("resuming at iteration {}", t.iteration));
+        rep.info(&format!("resuming at iteration {}", t.iteration()));
         t
     } else {
         rep.info(&init_note(&ds, &cfg));
@@ -309,9 +350,9 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             .map(|p| (p.positions.as_slice(), p.colors.as_deref()));
         Trainer::new(cfg.clone(), views, pts).map_err(CommandError::from_display)?
     };
-    t.cfg.schedule.iterations = cfg.schedule.iterations;
-    rep.start("train", t.cfg.schedule.iterations);
-    rep.progress(t.iteration, "");
+    t.set_total_iterations(cfg.schedule.iterations);
+    rep.start("train", t.cfg().schedule.iterations);
+    rep.progress(t.iteration(), "");
     let mut last_save = std::time::Instant::now();
     while !t.finished() {
         let r = t.step().map_err(CommandError::from_display)?;
@@ -319,23 +360,23 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             rep.info(&format!(
                 "iteration {}: dynamics on ({:?} motion, {} Gaussians)",
                 r.iteration,
-                t.model.motion,
-                t.model.len()
+                t.model().motion,
+                t.model().len()
             ));
         }
         let psnr = crate::train::trainer::psnr_of_mse(r.losses.mse);
         rep.progress(
-            t.iteration,
+            t.iteration(),
             &format!(
                 "loss {:.4} psnr {:.2} gaussians {}",
                 r.losses.total,
                 psnr,
-                t.model.len()
+                t.model().len()
             ),
         );
-        let every = t.cfg.schedule.checkpoint_every;
-        let minutes = t.cfg.schedule.checkpoint_minutes;
-        if (every > 0 && t.iteration % every == 0)
+        let every = t.cfg().schedule.checkpoint_every;
+        let minutes = t.cfg().schedule.checkpoint_minutes;
+        if (every > 0 && t.iteration() % every == 0)
             || (minutes > 0.0 && last_save.elapsed().as_secs_f64() >= 60.0 * minutes)
         {
             save_all(&t, &run)?;
@@ -348,8 +389,8 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             return Err(CommandError(format!(
                 "interrupted at iteration {} of {}: checkpoint written to {}; continue with \
                  `evogs train --out {} --resume`",
-                t.iteration,
-                t.cfg.schedule.iterations,
+                t.iteration(),
+                t.cfg().schedule.iterations,
                 run.checkpoint().display(),
                 run.dir.display()
             )));
@@ -361,34 +402,35 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         run: run.clone(),
         test: None,
         gif: None,
-        iterations: t.iteration,
-        seconds: t.train_seconds,
-        gaussians: t.model.len(),
+        iterations: t.iteration(),
+        seconds: t.train_seconds(),
+        gaussians: t.model().len(),
     };
     if args.skip_outputs {
         return Ok(outcome);
     }
     if !ds.test.is_empty() {
         rep.start("evaluate test", ds.test.len() as u64);
+        let par = t.par();
         let mut m = evaluate(
-            &mut t.model,
+            t.model_mut(),
             &ds.test,
             SplitName::Test,
             None,
             cfg.data.background,
-            t.par,
+            par,
             |d, _| rep.progress(d as u64, ""),
         )
         .map_err(CommandError)?;
         rep.finish();
-        m.iterations = t.iteration;
-        m.train_seconds = t.train_seconds;
+        m.iterations = t.iteration();
+        m.train_seconds = t.train_seconds();
         let json = serde_json::to_string_pretty(&m).unwrap_or_default();
         crate::atomic::write_atomic(&run.metrics("test"), json.as_bytes())
             .map_err(|e| CommandError(format!("{}: {e}", run.metrics("test").display())))?;
         outcome.test = Some(m);
     }
-    let (t0, t1) = t.time_range;
+    let (t0, t1) = t.time_range();
     let rargs = RenderArgs {
         run: run.dir.clone(),
         out: run.dir.join("render"),
@@ -398,7 +440,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         data: Some(data_dir),
         format: Some(ds.format),
     };
-    outcome.gif = render_sequence(&rargs, Some((&mut t.model, &ds)), rep)?.gif;
+    outcome.gif = render_sequence(&rargs, Some((t.model_mut(), &ds)), rep)?.gif;
     Ok(outcome)
 }
 
@@ -420,5 +462,32 @@ mod tests {
             "{}",
             notes[0]
         );
+    }
+
+    #[test]
+    fn the_flags_and_the_stored_record_are_one_struct() {
+        use clap::Parser as _;
+        #[derive(clap::Parser)]
+        struct Line {
+            #[command(flatten)]
+            args: TrainArgs,
+        }
+        let line = "evogs --data scene --out runs/a --preset paper --motion deformation \
+                    --protocol sparse --stride 4 --iters 300 --seed 7 --format n3dv --force";
+        let args = Line::try_parse_from(line.split_whitespace())
+            .expect("parses")
+            .args;
+        assert_eq!(args.preset, Some(Preset::Paper));
+        assert_eq!(
+            (args.stride, args.iters, args.seed),
+            (Some(4), Some(300), Some(7))
+        );
+        assert!(args.force && !args.resume && !args.skip_outputs);
+        let json = serde_json::to_string(&args).expect("serialises");
+        let back: TrainArgs = serde_json::from_str(&json).expect("reads back");
+        assert_eq!(back, args, "{json}");
+        let defaults = Line::try_parse_from(["evogs"]).expect("defaults").args;
+        assert_eq!(defaults.out, PathBuf::from("runs/latest"));
+        assert!(Line::try_parse_from(["evogs", "--iters", "0"]).is_err());
     }
 }

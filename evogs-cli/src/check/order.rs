@@ -1,5 +1,5 @@
 //! `evogs check-order`: the measured convergence order of every stepper on every public test
-//! problem of `evogs_ode::problems` (ode-lie.md §4), with the error table over the step
+//! problem of `evogs_ode::problems` (`docs/integrators.md` §7), with the error table over the step
 //! sequence, the successive orders and the fitted order over its clean range
 //! ([`evogs_ode::order::estimate_order`]).
 //!

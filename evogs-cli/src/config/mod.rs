@@ -1,5 +1,6 @@
 //! The training configuration: one TOML-serialisable struct with documented defaults and two
-//! presets, `fast` (the default: sized for 2 CPU cores) and `paper` (method.md's numbers).
+//! presets, `fast` (the default: sized for 2 CPU cores) and `paper` (the released code's D-NeRF
+//! numbers; `docs/method.md` §10).
 //!
 //! Resolution order: preset → config file (`--config`, any subset of fields) → command-line
 //! flags. The resolved configuration is written to `RUN/config.toml`.
@@ -11,8 +12,8 @@ use serde::{Deserialize, Serialize};
 
 mod sections;
 pub use sections::{
-    DataConfig, DensifyConfig, DynamicsConfig, InitConfig, LossConfig, OptimConfig, Protocol,
-    ScheduleConfig,
+    DataConfig, DensifyConfig, DynamicsConfig, InitConfig, LossConfig, OptimConfig, Preset,
+    Protocol, ScheduleConfig, TimeCoordinate,
 };
 
 /// Everything a training run needs to know.
@@ -20,7 +21,7 @@ pub use sections::{
 #[serde(deny_unknown_fields)]
 pub struct TrainConfig {
     /// Preset this configuration started from (`fast` or `paper`).
-    pub preset: String,
+    pub preset: Preset,
     /// Random seed (initialisation, view order, densification noise).
     pub seed: u64,
     /// Data loading and the training protocol.
@@ -56,7 +57,7 @@ impl TrainConfig {
     #[must_use]
     pub fn fast() -> Self {
         let mut c = Self::paper();
-        c.preset = "fast".into();
+        c.preset = Preset::Fast;
         c.field = NeuralFieldConfig {
             hexplane: HexPlaneConfig {
                 channels: 16,
@@ -75,7 +76,7 @@ impl TrainConfig {
         // objects' unseen sides then look wrong in their true pose and the learnt motion stays
         // short of it. 200 warm-up iterations instead of 1500 (and no opacity reset, which
         // would fall in the curriculum) moved the toys cube about twice as far along its true
-        // motion at the same test PSNR, in less time (README).
+        // motion at the same test PSNR, in less time (one run each on toys, during development).
         c.schedule.warmup_iters = 200;
         c.schedule.iterations = 2700;
         c.schedule.sh_degree_interval = 500;
@@ -87,7 +88,7 @@ impl TrainConfig {
         c.densify.max_gaussians = 20_000;
         // Temporal curriculum: warm up on the first 5 % of the time range, grow the window
         // over 1500 dynamic iterations with half of them on its newest stretch (toys-mini:
-        // +0.95 dB test PSNR at the same cost, README). The position and field decays pause
+        // +0.95 dB test PSNR at the same cost, one run each). The position and field decays pause
         // meanwhile, so the position decay runs over the remaining 200 + 1000 iterations.
         c.schedule.warmup_time_window = 0.05;
         c.schedule.curriculum_iters = 1500;
@@ -97,13 +98,13 @@ impl TrainConfig {
         c
     }
 
-    /// The `paper` preset: method.md's D-NeRF numbers (5000 static + 20000 dynamic
-    /// iterations, HexPlane 2 × 32 channels at [64, 64, 64, 25], MLP 64 wide, RK4 with steps
-    /// of 1/8 of the time range, three trainable anchors).
+    /// The `paper` preset: the released code's D-NeRF numbers (`docs/method.md` §10; 5000
+    /// static + 20000 dynamic iterations, HexPlane 2 × 32 channels at [64, 64, 64, 25], MLP 64
+    /// wide, RK4 with steps of 1/8 of the time range, three trainable anchors).
     #[must_use]
     pub fn paper() -> Self {
         Self {
-            preset: "paper".into(),
+            preset: Preset::Paper,
             seed: 0,
             data: DataConfig {
                 background: [1.0; 3],
@@ -126,11 +127,11 @@ impl TrainConfig {
             },
             dynamics: DynamicsConfig {
                 motion: Motion::Velocity,
-                method: "rk4".into(),
+                method: evogs_ode::Method::Rk4,
                 step_fraction: 0.125,
                 waypoints: Waypoints::Trainable,
                 anchors: 3,
-                time_mapping: "normalized".into(),
+                time_mapping: TimeCoordinate::Normalized,
             },
             field: NeuralFieldConfig {
                 hexplane: HexPlaneConfig {
@@ -194,15 +195,12 @@ impl TrainConfig {
         }
     }
 
-    /// A preset by name.
-    ///
-    /// # Errors
-    /// An unknown name.
-    pub fn preset(name: &str) -> Result<Self, String> {
-        match name {
-            "fast" => Ok(Self::fast()),
-            "paper" => Ok(Self::paper()),
-            _ => Err(format!("unknown preset `{name}` (fast, paper)")),
+    /// A preset's configuration.
+    #[must_use]
+    pub fn from_preset(preset: Preset) -> Self {
+        match preset {
+            Preset::Fast => Self::fast(),
+            Preset::Paper => Self::paper(),
         }
     }
 
@@ -290,14 +288,6 @@ impl TrainConfig {
         chk(
             self.dynamics.anchors >= 1,
             "dynamics.anchors must be at least 1",
-        )?;
-        self.dynamics
-            .method
-            .parse::<evogs_ode::Method>()
-            .map_err(|e| format!("dynamics.method = `{}`: {e}", self.dynamics.method))?;
-        chk(
-            matches!(self.dynamics.time_mapping.as_str(), "normalized" | "raw"),
-            "dynamics.time_mapping must be `normalized` or `raw`",
         )?;
         chk(
             self.field.hexplane.resolution.iter().all(|&r| r >= 2),
@@ -493,8 +483,8 @@ mod tests {
             .merge_toml("seed = 9\n[dynamics]\nmethod = \"euler\"\n")
             .expect("overlay");
         assert_eq!(
-            (d.seed, d.dynamics.method.as_str()),
-            (9, "euler"),
+            (d.seed, d.dynamics.method),
+            (9, evogs_ode::Method::Euler),
             "overlaid fields"
         );
         assert_eq!(d.loss, c.loss, "other fields kept");
@@ -506,10 +496,17 @@ mod tests {
             TrainConfig::paper().validate().is_ok() && c.validate().is_ok(),
             "presets are valid"
         );
-        let bad = c
+        let e = c
             .merge_toml("[dynamics]\nmethod = \"rk5\"\n")
-            .expect("parses");
-        assert!(bad.validate().is_err(), "unknown method rejected");
+            .expect_err("unknown method rejected");
+        assert!(e.contains("dynamics.method") && e.contains("rk5"), "{e}");
+        let e = c
+            .merge_toml("[dynamics]\ntime_mapping = \"warped\"\n")
+            .expect_err("unknown time mapping rejected");
+        assert!(
+            e.contains("dynamics.time_mapping") && e.contains("warped"),
+            "{e}"
+        );
         let long = c
             .merge_toml("[schedule]\ncurriculum_iters = 2501\n")
             .expect("parses");

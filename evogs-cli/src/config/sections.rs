@@ -3,6 +3,7 @@
 
 use crate::data::DataFormat;
 use crate::model::{Motion, Waypoints};
+use evogs_ode::Method;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -76,6 +77,72 @@ impl std::str::FromStr for Protocol {
     }
 }
 
+/// A named starting configuration.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Preset {
+    /// Sized for two CPU cores (the default).
+    #[default]
+    Fast,
+    /// The paper's D-NeRF settings.
+    Paper,
+}
+
+impl Preset {
+    /// The preset's name.
+    #[must_use]
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Self::Fast => "fast",
+            Self::Paper => "paper",
+        }
+    }
+}
+
+impl std::fmt::Display for Preset {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl std::str::FromStr for Preset {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "fast" => Ok(Self::Fast),
+            "paper" => Ok(Self::Paper),
+            _ => Err(format!("unknown preset `{s}` (fast, paper)")),
+        }
+    }
+}
+
+/// The time coordinate the HexPlane sees.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TimeCoordinate {
+    /// The training time range mapped to `[−1, 1]`.
+    Normalized,
+    /// Times as they are.
+    Raw,
+}
+
+/// The ODE method in a configuration file: its name (`rk4`), through `Method`'s `FromStr`
+/// and `Display`.
+mod method_name {
+    use evogs_ode::Method;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub(super) fn serialize<S: Serializer>(m: &Method, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(m.name())
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Method, D::Error> {
+        let name = String::deserialize(d)?;
+        name.parse()
+            .map_err(|e| serde::de::Error::custom(format!("`{name}`: {e}")))
+    }
+}
+
 /// Initial Gaussians.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -100,7 +167,8 @@ pub struct DynamicsConfig {
     /// `velocity` (EvoGS), `deformation` (4DGS-style) or `static`.
     pub motion: Motion,
     /// ODE method: euler, midpoint, heun, rk4, rk38.
-    pub method: String,
+    #[serde(with = "method_name")]
+    pub method: Method,
     /// Largest step as a fraction of the training time range (the last step of a frame is
     /// shortened to land on its time).
     pub step_fraction: f64,
@@ -109,7 +177,7 @@ pub struct DynamicsConfig {
     /// Number of anchors (start, …, end of the training time range).
     pub anchors: usize,
     /// Time coordinate of the HexPlane: `normalized` (`[t_min, t_max] → [−1, 1]`) or `raw`.
-    pub time_mapping: String,
+    pub time_mapping: TimeCoordinate,
 }
 
 /// Loss weights.

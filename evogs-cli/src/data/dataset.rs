@@ -7,10 +7,10 @@
 //! memory can be loaded as cameras and times only and its frames decoded as they are used
 //! ([`super::frame_cache`]).
 
+use super::error::DataError;
 use super::format::DataFormat;
-use super::image_io::{FrameDecode, ImageIoError};
-use super::npy::NpyError;
-use super::ply::{PlyError, PlyTable};
+use super::image_io::FrameDecode;
+use super::ply::PlyTable;
 use evogs_splat::Image;
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -53,44 +53,6 @@ impl std::str::FromStr for SplitName {
             _ => Err(format!("unknown split `{s}` (train, val, test, future)")),
         }
     }
-}
-
-/// Why a dataset could not be loaded: always names the file.
-#[derive(Debug, thiserror::Error)]
-pub enum DataError {
-    /// A required file or folder is missing.
-    #[error("{path}: missing ({what})")]
-    Missing {
-        /// File.
-        path: String,
-        /// What it should have been.
-        what: &'static str,
-    },
-    /// The JSON does not parse or lacks a field.
-    #[error("{path}: malformed JSON: {msg}")]
-    Json {
-        /// File.
-        path: String,
-        /// Parser message.
-        msg: String,
-    },
-    /// A value is invalid.
-    #[error("{path}: {msg}")]
-    Invalid {
-        /// File.
-        path: String,
-        /// What is wrong.
-        msg: String,
-    },
-    /// An image could not be read.
-    #[error(transparent)]
-    Image(#[from] ImageIoError),
-    /// The point cloud could not be read.
-    #[error(transparent)]
-    Ply(#[from] PlyError),
-    /// A `.npy` file could not be read.
-    #[error(transparent)]
-    Npy(#[from] NpyError),
 }
 
 /// How to load a dataset.

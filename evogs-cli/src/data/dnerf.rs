@@ -7,7 +7,8 @@
 //! Images are composited onto a background (white by default) and optionally box-downscaled.
 //! Every problem is reported as one line naming the file ([`DataError`]); nothing panics.
 
-use super::dataset::{DataError, Dataset, LoadOptions, SplitName, View, optional_point_cloud};
+use super::dataset::{Dataset, LoadOptions, SplitName, View, optional_point_cloud};
+use super::error::DataError;
 use super::format::DataFormat;
 use evogs_splat::{Image, PinholeCamera};
 use serde::Deserialize;
@@ -20,17 +21,76 @@ const MAX_FOV: f64 = std::f64::consts::PI - 1e-3;
 /// The largest camera coordinate accepted (scenes are metres to kilometres across).
 const MAX_COORDINATE: f64 = 1e6;
 
-#[derive(Deserialize)]
-struct TransformsFile {
-    camera_angle_x: f64,
-    frames: Vec<FrameEntry>,
+/// A transforms file as read and checked by [`parse_transforms`].
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+pub struct TransformsFile {
+    /// Horizontal field of view, radians.
+    pub camera_angle_x: f64,
+    /// The frames (at least one).
+    pub frames: Vec<FrameEntry>,
 }
 
-#[derive(Deserialize)]
-struct FrameEntry {
-    file_path: String,
-    time: f64,
-    transform_matrix: [[f64; 4]; 4],
+/// One frame of a transforms file.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+pub struct FrameEntry {
+    /// Image path relative to the dataset folder, usually without the `.png`.
+    pub file_path: String,
+    /// Frame time.
+    pub time: f64,
+    /// Camera-to-world matrix (Blender/OpenGL axes), rigid.
+    pub transform_matrix: [[f64; 4]; 4],
+}
+
+/// Parses and checks the text of a `transforms_*.json`: the JSON shape (errors name the key,
+/// e.g. `frames[2].time`), a field of view in `[1e-3, π − 1e-3]`, at least one frame, every
+/// matrix finite, within ±1e6 and a rigid camera pose, every time finite and, on the
+/// training split, in `[0, 1]`.
+///
+/// # Errors
+/// The first problem, as a message naming the key.
+pub fn parse_transforms(text: &str, split: SplitName) -> Result<TransformsFile, String> {
+    let de = &mut serde_json::Deserializer::from_str(text);
+    let file: TransformsFile = serde_path_to_error::deserialize(de).map_err(|e| {
+        let at = e.path().to_string();
+        if at == "." {
+            format!("malformed JSON: {}", e.inner())
+        } else {
+            format!("malformed JSON at {at}: {}", e.inner())
+        }
+    })?;
+    if !(file.camera_angle_x.is_finite() && (MIN_FOV..=MAX_FOV).contains(&file.camera_angle_x)) {
+        return Err(format!(
+            "camera_angle_x = {} is not a field of view (radians in [{MIN_FOV}, π − {MIN_FOV}])",
+            file.camera_angle_x
+        ));
+    }
+    if file.frames.is_empty() {
+        return Err("no frames".into());
+    }
+    for (i, f) in file.frames.iter().enumerate() {
+        if !f
+            .transform_matrix
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite() && v.abs() <= MAX_COORDINATE)
+        {
+            return Err(format!(
+                "frames[{i}].transform_matrix has an entry that is not finite or beyond \
+                 ±{MAX_COORDINATE:e}"
+            ));
+        }
+        if let Err(e) =
+            PinholeCamera::<f64>::from_dnerf(f.transform_matrix, file.camera_angle_x, 1, 1)
+        {
+            return Err(format!(
+                "frames[{i}].transform_matrix is not a camera pose: {e}"
+            ));
+        }
+        if !f.time.is_finite() || (split == SplitName::Train && !(0.0..=1.0).contains(&f.time)) {
+            return Err(format!("frames[{i}].time = {} is outside [0, 1]", f.time));
+        }
+    }
+    Ok(file)
 }
 
 /// Loads a D-NeRF dataset folder.
@@ -85,63 +145,12 @@ fn load_split(
         path: p.clone(),
         msg: e.to_string(),
     })?;
-    let de = &mut serde_json::Deserializer::from_str(&text);
-    let file: TransformsFile = serde_path_to_error::deserialize(de).map_err(|e| {
-        let at = e.path().to_string();
-        DataError::Json {
-            path: p.clone(),
-            msg: if at == "." {
-                e.inner().to_string()
-            } else {
-                format!("{at}: {}", e.inner())
-            },
-        }
+    let file = parse_transforms(&text, split).map_err(|msg| DataError::Invalid {
+        path: p.clone(),
+        msg,
     })?;
-    if !(file.camera_angle_x.is_finite() && (MIN_FOV..=MAX_FOV).contains(&file.camera_angle_x)) {
-        return Err(DataError::Invalid {
-            path: p,
-            msg: format!(
-                "camera_angle_x = {} is not a field of view (radians in [{MIN_FOV}, π − {MIN_FOV}])",
-                file.camera_angle_x
-            ),
-        });
-    }
-    if file.frames.is_empty() {
-        return Err(DataError::Invalid {
-            path: p,
-            msg: "no frames".into(),
-        });
-    }
     let mut views = Vec::with_capacity(file.frames.len());
-    for (i, f) in file.frames.iter().enumerate() {
-        if !f
-            .transform_matrix
-            .iter()
-            .flatten()
-            .all(|v| v.is_finite() && v.abs() <= MAX_COORDINATE)
-        {
-            return Err(DataError::Invalid {
-                path: p,
-                msg: format!(
-                    "frames[{i}].transform_matrix has an entry that is not finite or beyond \
-                     ±{MAX_COORDINATE:e}"
-                ),
-            });
-        }
-        if let Err(e) =
-            PinholeCamera::<f64>::from_dnerf(f.transform_matrix, file.camera_angle_x, 1, 1)
-        {
-            return Err(DataError::Invalid {
-                path: p,
-                msg: format!("frames[{i}].transform_matrix is not a camera pose: {e}"),
-            });
-        }
-        if !f.time.is_finite() || (split == SplitName::Train && !(0.0..=1.0).contains(&f.time)) {
-            return Err(DataError::Invalid {
-                path: p,
-                msg: format!("frames[{i}].time = {} is outside [0, 1]", f.time),
-            });
-        }
+    for f in &file.frames {
         let mut file_path = root.join(&f.file_path);
         if file_path.extension().is_none() {
             file_path.set_extension("png");

@@ -1,6 +1,6 @@
 //! The dataset layouts evogs reads, and how a folder's layout is recognised.
 
-use super::dataset::DataError;
+use super::error::DataError;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

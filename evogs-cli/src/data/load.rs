@@ -1,7 +1,8 @@
 //! Loading a dataset folder: the layout is recognised (or named) and its reader called. Kept
 //! apart from the dataset types so that the readers depend on the types and not back.
 
-use super::dataset::{DataError, Dataset, LoadOptions};
+use super::dataset::{Dataset, LoadOptions};
+use super::error::DataError;
 use super::format::DataFormat;
 use std::path::Path;
 

@@ -3,6 +3,7 @@
 
 pub mod dataset;
 pub mod dnerf;
+pub mod error;
 pub mod format;
 pub mod frame_cache;
 pub mod gif_writer;
@@ -12,8 +13,7 @@ pub mod n3dv;
 pub mod npy;
 pub mod ply;
 
-pub use dataset::{
-    DataError, Dataset, LoadOptions, PointCloud, RigCamera, SplitName, View, read_point_cloud,
-};
+pub use dataset::{Dataset, LoadOptions, PointCloud, RigCamera, SplitName, View, read_point_cloud};
+pub use error::DataError;
 pub use format::DataFormat;
 pub use frame_cache::{CacheStats, FrameCache};

@@ -47,9 +47,8 @@
 //! Only image headers are read unless [`LoadOptions::load_images`] is set, so every frame
 //! is checked before training starts without decoding a capture larger than memory.
 
-use super::dataset::{
-    DataError, Dataset, LoadOptions, RigCamera, View, decode_views, optional_point_cloud,
-};
+use super::dataset::{Dataset, LoadOptions, RigCamera, View, decode_views, optional_point_cloud};
+use super::error::DataError;
 use super::format::DataFormat;
 use super::image_io::FrameDecode;
 use super::npy::NpyMatrix;
@@ -176,23 +175,35 @@ impl LlffPose {
     }
 }
 
-/// Reads and checks `poses_bounds.npy`.
+/// Reads and checks `poses_bounds.npy` ([`parse_poses`]).
 ///
 /// # Errors
 /// A malformed file, a shape other than `(N, 17)` with `N ≥ 1`, or a camera whose pose is
 /// not finite, not a rotation or has bad `(H, W, focal)`.
 pub fn read_poses(path: &Path) -> Result<Vec<LlffPose>, DataError> {
     let m = NpyMatrix::read(path)?;
-    let bad = |msg: String| DataError::Invalid {
+    poses_from_matrix(&m).map_err(|msg| DataError::Invalid {
         path: path.display().to_string(),
         msg,
-    };
+    })
+}
+
+/// Parses and checks the bytes of a `poses_bounds.npy`: a little-endian f64 matrix of shape
+/// `(N, 17)`, `N ≥ 1`, each row a valid LLFF pose with its bounds.
+///
+/// # Errors
+/// What is wrong, as a message.
+pub fn parse_poses(bytes: &[u8]) -> Result<Vec<LlffPose>, String> {
+    poses_from_matrix(&NpyMatrix::parse(bytes)?)
+}
+
+fn poses_from_matrix(m: &NpyMatrix) -> Result<Vec<LlffPose>, String> {
     if m.cols != 17 || m.rows == 0 {
-        return Err(bad(format!(
+        return Err(format!(
             "shape ({}, {}) is not (N_cams, 17): per camera an LLFF 3x5 pose and the near and \
              far bounds",
             m.rows, m.cols
-        )));
+        ));
     }
     (0..m.rows)
         .map(|i| {
@@ -206,7 +217,7 @@ pub fn read_poses(path: &Path) -> Result<Vec<LlffPose>, DataError> {
                 bounds: [row[15], row[16]],
             };
             pose.check()
-                .map_err(|e| bad(format!("camera {i} (row {i}): {e}")))?;
+                .map_err(|e| format!("camera {i} (row {i}): {e}"))?;
             Ok(pose)
         })
         .collect()
@@ -301,41 +312,39 @@ fn frame_times(root: &Path, opts: &LoadOptions, count: usize) -> Result<Vec<f64>
         path: p.clone(),
         msg: format!("cannot read the frame times: {e}"),
     })?;
+    parse_frame_times(&text, count).map_err(|msg| DataError::Invalid { path: p, msg })
+}
+
+/// Parses a times file: `count` numbers (whitespace-separated, `#` comments), increasing,
+/// in `[0, 1]`, one per frame index.
+///
+/// # Errors
+/// What is wrong, as a message.
+pub fn parse_frame_times(text: &str, count: usize) -> Result<Vec<f64>, String> {
     let times: Vec<f64> = text
         .lines()
         .map(|l| l.split('#').next().unwrap_or(""))
         .flat_map(str::split_whitespace)
         .map(|t| {
-            t.parse::<f64>().map_err(|_| DataError::Invalid {
-                path: p.clone(),
-                msg: format!("`{t}` is not a number"),
-            })
+            t.parse::<f64>()
+                .map_err(|_| format!("`{t}` is not a number"))
         })
         .collect::<Result<_, _>>()?;
     if times.len() != count {
-        return Err(DataError::Invalid {
-            path: p,
-            msg: format!(
-                "{} times for {count} frames per camera (one time per frame index)",
-                times.len()
-            ),
-        });
+        return Err(format!(
+            "{} times for {count} frames per camera (one time per frame index)",
+            times.len()
+        ));
     }
     for (k, &t) in times.iter().enumerate() {
         if !(0.0..=1.0).contains(&t) {
-            return Err(DataError::Invalid {
-                path: p,
-                msg: format!("time {t} of frame {k} is outside [0, 1]"),
-            });
+            return Err(format!("time {t} of frame {k} is outside [0, 1]"));
         }
         if k > 0 && t <= times[k - 1] {
-            return Err(DataError::Invalid {
-                path: p,
-                msg: format!(
-                    "times must increase: frame {k} at {t} follows {}",
-                    times[k - 1]
-                ),
-            });
+            return Err(format!(
+                "times must increase: frame {k} at {t} follows {}",
+                times[k - 1]
+            ));
         }
     }
     Ok(times)

@@ -6,8 +6,10 @@
 use super::gemm::Gemm;
 use super::hexplane::{HexPlane, Lookup};
 use super::mlp::{Mlp, MlpActivations};
-use super::neural::CHUNK;
 use evogs_math::Real;
+
+/// Gaussians per work chunk.
+pub const CHUNK: usize = 256;
 
 /// Channels per block of the leave-one-out products (one AVX2 register of f32).
 const LANES: usize = 8;

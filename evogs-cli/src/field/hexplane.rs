@@ -1,4 +1,4 @@
-//! The HexPlane (K-Planes) space-time encoder of EvoGS/4DGS (method.md section 3).
+//! The HexPlane (K-Planes) space-time encoder of EvoGS/4DGS (`docs/method.md` §3).
 //!
 //! Coordinates `(x, y, z, t)` are normalised to [−1, 1] (space by the scene's bounding box,
 //! time by a [`TimeMapping`]). Six planes, one per pair of coordinates, in itertools order:

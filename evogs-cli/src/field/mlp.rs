@@ -1,4 +1,4 @@
-//! The velocity MLP of EvoGS (method.md section 2), batched over rows with GEMM kernels.
+//! The velocity MLP of EvoGS (`docs/method.md` §4), batched over rows with GEMM kernels.
 //!
 //! ```text
 //! trunk:  T = F·W0ᵀ + b0                     (feature_dim → W, no activation after it)

@@ -8,6 +8,7 @@ pub mod neural;
 pub mod profile;
 pub mod regularize;
 
+pub use chunk::CHUNK;
 pub use gemm::Gemm;
 pub use hexplane::{HexPlane, HexPlaneConfig, TimeMapping};
 pub use mlp::Mlp;

@@ -14,7 +14,7 @@
 //! ranges) in Gaussian order. Results are therefore bitwise identical for any thread count.
 //! Buffers are kept between calls and only grow.
 
-use super::chunk::{ChunkScratch, decode_chunk_vjp, encode_chunk};
+use super::chunk::{CHUNK, ChunkScratch, decode_chunk_vjp, encode_chunk};
 use super::gemm::Gemm;
 use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
@@ -28,8 +28,6 @@ use std::time::Instant;
 
 mod eval_cache;
 
-/// Gaussians per work chunk.
-pub const CHUNK: usize = 256;
 /// State entries per Gaussian: position (3), quaternion (4), log-scale (3).
 pub const STATE_STRIDE: usize = 10;
 

@@ -1,4 +1,4 @@
-//! The HexPlane regularisers of EvoGS/4DGS (method.md section 3), with gradients.
+//! The HexPlane regularisers of EvoGS/4DGS (`docs/losses.md` §6), with gradients.
 //!
 //! - `smoothness(P)`: the mean over all entries of `(P[h+2] − 2P[h+1] + P[h])²`, a squared
 //!   **second** difference along the rows (the plane's second coordinate: y or z for spatial

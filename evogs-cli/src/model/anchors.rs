@@ -72,9 +72,9 @@ impl<T: Real> AnchorState<T> {
     }
     /// Keeps the Gaussians flagged in `keep`.
     pub fn retain(&mut self, keep: &[bool]) {
-        crate::train::adam::retain_items(&mut self.means, keep, 1);
-        crate::train::adam::retain_items(&mut self.log_scales, keep, 1);
-        crate::train::adam::retain_items(&mut self.quats, keep, 1);
+        super::retain::retain_items(&mut self.means, keep, 1);
+        super::retain::retain_items(&mut self.log_scales, keep, 1);
+        super::retain::retain_items(&mut self.quats, keep, 1);
     }
 }
 

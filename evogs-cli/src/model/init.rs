@@ -1,5 +1,5 @@
 //! Initial Gaussians: from a point cloud (`points3d.ply`) or random points in a box
-//! (method.md sections 1 and 7.5).
+//! (`docs/method.md` §2).
 //!
 //! Colour: SH DC = (rgb − 0.5)/C0, higher coefficients 0 (random grey ≈ 0.5 without
 //! colours). Log-scale: log √(max(d̄², 1e-7)) with d̄² the mean squared distance to the three

@@ -1,5 +1,5 @@
 //! The dynamic scene model: canonical Gaussians, waypoint (anchor) states and the neural
-//! field, with the three dynamics modes (design.md section 3).
+//! field, with the three dynamics modes (`docs/method.md` §5 and §6).
 //!
 //! - [`Motion::Velocity`] (EvoGS): the state `(p, R, s)` of every Gaussian evolves under
 //!   `d(p, R, s)/dt = (v, ω, ṡ)(p, t)`, integrated from the nearest anchor with an ODE
@@ -14,6 +14,7 @@
 pub mod anchors;
 pub mod dynamics;
 pub mod init;
+pub mod retain;
 
 pub use anchors::{AnchorState, Waypoints, anchor_for_time};
 pub use dynamics::FrameTape;
@@ -101,7 +102,8 @@ pub struct ModelGrad<T> {
 }
 
 /// How many field evaluations to keep for the adjoint: every stage of the longest integration
-/// a frame or an anchor segment needs (so the discrete adjoint recomputes nothing), at most 16.
+/// a frame or an anchor segment needs, capped at 4 (each holds the field's activations for
+/// every Gaussian; evaluations beyond the cap are recomputed by the adjoint).
 fn stored_evaluations(method: Method, max_step: f64, anchor_times: &[f64]) -> usize {
     let longest = anchor_times
         .windows(2)

@@ -13,7 +13,6 @@ use crate::train::optim::{Optimizer, StateGroups};
 use crate::train::trainer::{LogRow, Trainer};
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Quat, Vec3};
-use evogs_ode::Method;
 use evogs_splat::Splats;
 use serde_json::json;
 use std::path::Path;
@@ -226,11 +225,7 @@ pub fn load_model(path: &Path) -> Result<Loaded, CheckpointError> {
         .as_array()
         .map(|a| a.iter().filter_map(serde_json::Value::as_f64).collect())
         .unwrap_or_default();
-    let method: Method = cfg
-        .dynamics
-        .method
-        .parse()
-        .map_err(|e| bad(format!("method: {e}")))?;
+    let method = cfg.dynamics.method;
     let max_step = meta["max_step"]
         .as_f64()
         .ok_or_else(|| bad("missing max_step".into()))?;

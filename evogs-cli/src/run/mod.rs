@@ -2,3 +2,5 @@
 
 pub mod archive;
 pub mod checkpoint;
+mod float_bits;
+mod legacy;

@@ -1,10 +1,12 @@
 //! Adam with per-group learning rates, and the exponential learning-rate schedule of
-//! 3DGS/4DGS/EvoGS (method.md section 7.2).
+//! 3DGS/4DGS/EvoGS (`docs/method.md` §7.3).
 //!
 //! `m ← β₁m + (1 − β₁)g`, `v ← β₂v + (1 − β₂)g²`, `x ← x − lr·m̂/(√v̂ + ε)` with bias
 //! corrections `m̂ = m/(1 − β₁ᵗ)`, `v̂ = v/(1 − β₂ᵗ)`; β = (0.9, 0.999), ε = 1e-15 (EvoGS).
 //! Each parameter group keeps its own step count, so groups created later (anchors when the
 //! dynamics start) start their bias correction at 1.
+
+use crate::model::retain::retain_items;
 
 /// Adam moments of one parameter group.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -132,20 +134,6 @@ impl AdamState {
         self.m.fill(0.0);
         self.v.fill(0.0);
     }
-}
-
-/// Keeps the `stride`-sized items of `data` whose flag in `keep` is true, in order.
-pub fn retain_items<T: Copy>(data: &mut Vec<T>, keep: &[bool], stride: usize) {
-    let mut w = 0;
-    for (i, &k) in keep.iter().enumerate() {
-        if k {
-            if w != i {
-                data.copy_within(i * stride..(i + 1) * stride, w * stride);
-            }
-            w += 1;
-        }
-    }
-    data.truncate(w * stride);
 }
 
 /// The exponential schedule `lr(step) = exp((1 − u) ln lr_init + u ln lr_final)`,

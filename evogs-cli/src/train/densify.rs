@@ -1,4 +1,4 @@
-//! Adaptive density control of 3DGS (splatting.md B, method.md section 7.4): clone small
+//! Adaptive density control of 3DGS (`docs/method.md` §7.4): clone small
 //! Gaussians and split large ones whose view-averaged 2D-mean gradient is large, prune
 //! transparent (and optionally huge) ones, and reset opacities periodically.
 //!
@@ -6,10 +6,10 @@
 //! gets the same local offset `n ~ N(0, I)` in every anchor frame: `p = p_a + R_a(s_a ⊙ n)`),
 //! so the Gaussians stay in one-to-one correspondence across anchors.
 
-use super::adam::retain_items;
 use super::optim::Optimizer;
 use crate::config::DensifyConfig;
 use crate::model::Model;
+use crate::model::retain::retain_items;
 use evogs_math::activation::{logit, sigmoid};
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Quat, Vec3};

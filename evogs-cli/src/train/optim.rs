@@ -1,5 +1,5 @@
 //! The optimiser of a [`Model`]: one Adam state per parameter group, with the learning rates
-//! and schedules of method.md section 7.2.
+//! and schedules of `docs/method.md` §7.3.
 //!
 //! | group | rate |
 //! |---|---|

@@ -15,6 +15,7 @@ use super::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats,
     batch_loss_and_grad, render_options,
 };
+use crate::config::TimeCoordinate;
 use crate::config::TrainConfig;
 use crate::field::regularize::PlaneRegWeights;
 use crate::field::{NeuralField, TimeMapping};
@@ -23,7 +24,6 @@ use crate::model::init::{gaussians_from_points, random_points};
 use crate::model::{Model, ModelGrad, Motion, Waypoints};
 use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
-use evogs_ode::Method;
 use std::time::Instant;
 
 /// Slack on time comparisons of the curriculum window (times are read from JSON).
@@ -99,37 +99,38 @@ pub struct StepReport {
     pub view_time: f64,
 }
 
-/// A training run in memory.
+/// A training run in memory: build it with [`Trainer::new`] (or resume one from a
+/// checkpoint), advance it with [`Trainer::step`], read it through the accessors.
 #[derive(Debug)]
 pub struct Trainer {
     /// The resolved configuration.
-    pub cfg: TrainConfig,
+    pub(crate) cfg: TrainConfig,
     /// The model.
-    pub model: Model<f32>,
+    pub(crate) model: Model<f32>,
     /// Adam states.
-    pub optim: Optimizer,
+    pub(crate) optim: Optimizer,
     /// Supervised training views (images in memory or behind a bounded frame cache).
-    pub views: TrainViews,
+    pub(crate) views: TrainViews,
     /// Scene extent (learning-rate scale).
-    pub extent: f64,
+    pub(crate) extent: f64,
     /// Training time range.
-    pub time_range: (f64, f64),
+    pub(crate) time_range: (f64, f64),
     /// Iterations done.
-    pub iteration: u64,
+    pub(crate) iteration: u64,
     /// Seconds spent in iterations.
-    pub train_seconds: f64,
+    pub(crate) train_seconds: f64,
     /// Log rows so far.
-    pub log: Vec<LogRow>,
+    pub(crate) log: Vec<LogRow>,
     /// Densification accumulators.
-    pub stats: DensifyStats,
+    pub(crate) stats: DensifyStats,
     /// Random state (view order, coherence samples, split offsets).
-    pub rng: SplitMix64,
+    pub(crate) rng: SplitMix64,
     /// Current view permutation and position in it.
-    pub order: Vec<usize>,
+    pub(crate) order: Vec<usize>,
     /// Position in `order`.
-    pub order_pos: usize,
+    pub(crate) order_pos: usize,
     /// Parallelism.
-    pub par: Par,
+    pub(crate) par: Par,
     ws: StepWorkspace<f32>,
     grad: Option<ModelGrad<f32>>,
 }
@@ -176,20 +177,15 @@ impl Trainer {
             lo[a] -= m;
             hi[a] += m;
         }
-        let time = if cfg.dynamics.time_mapping == "raw" {
-            TimeMapping::Raw
-        } else {
-            TimeMapping::Normalized {
+        let time = match cfg.dynamics.time_mapping {
+            TimeCoordinate::Raw => TimeMapping::Raw,
+            TimeCoordinate::Normalized => TimeMapping::Normalized {
                 t_min: t0,
                 t_max: t1,
-            }
+            },
         };
         let field = NeuralField::new(&cfg.field, lo, hi, time, cfg.seed ^ 0x5eed);
-        let method: Method = cfg
-            .dynamics
-            .method
-            .parse()
-            .map_err(|e| TrainError::Setup(format!("dynamics.method: {e}")))?;
+        let method = cfg.dynamics.method;
         let model = Model::new(
             canonical,
             field,
@@ -226,6 +222,100 @@ impl Trainer {
             t.model.dynamics_active = false;
         }
         Ok(t)
+    }
+
+    /// The resolved configuration.
+    #[must_use]
+    pub const fn cfg(&self) -> &TrainConfig {
+        &self.cfg
+    }
+
+    /// The model.
+    #[must_use]
+    pub const fn model(&self) -> &Model<f32> {
+        &self.model
+    }
+
+    /// The model, to evaluate or render with it (rendering caches per-call state in it).
+    pub const fn model_mut(&mut self) -> &mut Model<f32> {
+        &mut self.model
+    }
+
+    /// Iterations done.
+    #[must_use]
+    pub const fn iteration(&self) -> u64 {
+        self.iteration
+    }
+
+    /// Seconds spent in iterations.
+    #[must_use]
+    pub const fn train_seconds(&self) -> f64 {
+        self.train_seconds
+    }
+
+    /// The log rows so far.
+    #[must_use]
+    pub fn log(&self) -> &[LogRow] {
+        &self.log
+    }
+
+    /// The training time range.
+    #[must_use]
+    pub const fn time_range(&self) -> (f64, f64) {
+        self.time_range
+    }
+
+    /// The optimiser's state (Adam moments and steps per parameter group).
+    #[must_use]
+    pub const fn optimizer(&self) -> &Optimizer {
+        &self.optim
+    }
+
+    /// The densification accumulators.
+    #[must_use]
+    pub const fn densify_stats(&self) -> &DensifyStats {
+        &self.stats
+    }
+
+    /// The current permutation of the views (the epoch's order).
+    #[must_use]
+    pub fn view_order(&self) -> &[usize] {
+        &self.order
+    }
+
+    /// The state of the random generator (view order, coherence samples, split offsets).
+    #[must_use]
+    pub const fn rng_state(&self) -> u64 {
+        self.rng.state()
+    }
+
+    /// The scene extent that scales the position learning rate.
+    #[must_use]
+    pub const fn extent(&self) -> f64 {
+        self.extent
+    }
+
+    /// The supervised training views.
+    #[must_use]
+    pub const fn views(&self) -> &TrainViews {
+        &self.views
+    }
+
+    /// The parallelism of the iterations.
+    #[must_use]
+    pub const fn par(&self) -> Par {
+        self.par
+    }
+
+    /// Sets the parallelism (results are deterministic for a given thread count).
+    pub const fn set_par(&mut self, par: Par) {
+        self.par = par;
+    }
+
+    /// Sets the total iteration count (`--iters` on resume extends a run); the schedules keep
+    /// their planned lengths.
+    pub const fn set_total_iterations(&mut self, iterations: u64) {
+        self.cfg.schedule.iterations = iterations;
     }
 
     /// Whether all iterations are done.

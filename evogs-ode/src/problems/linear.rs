@@ -1,4 +1,4 @@
-//! The rotating, decaying linear system of ode-lie.md §4.2, with its exact discrete
+//! The rotating, decaying linear system of `docs/integrators.md` §7.1, with its exact discrete
 //! gradient.
 
 use super::ExactProblem;

@@ -1,4 +1,4 @@
-//! Reference problems with exact solutions (ode-lie.md §4), for order verification,
+//! Reference problems with exact solutions (`docs/integrators.md` §7), for order verification,
 //! tests, benches and the command line's `check-order`.
 //!
 //! Every problem is a [`VectorField`] (generic over the scalar, so it also runs in dual
@@ -33,7 +33,7 @@
 //! | [`ForcedOscillator`] | ℝ² | non-autonomous, modulated stiffness |
 //!
 //! Methods of an order p show slope p on each of them (see [`crate::order`]); a linear
-//! problem alone cannot tell a fake RK4 from a real one (ode-lie.md §2.1).
+//! problem alone cannot tell a fake RK4 from a real one (`docs/integrators.md` §2).
 
 mod classic;
 mod linear;

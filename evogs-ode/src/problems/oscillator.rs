@@ -1,4 +1,4 @@
-//! The harmonic oscillator (ode-lie.md §4.4).
+//! The harmonic oscillator (`docs/integrators.md` §7.3).
 
 use super::ExactProblem;
 use crate::VectorField;

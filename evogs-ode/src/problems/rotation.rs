@@ -1,5 +1,5 @@
-//! Pure rotation kinematics on SO(3): constant rate (ode-lie.md §4.6) and the
-//! time-varying "Problem K" (§4.7). Fields return **world-frame** angular velocities
+//! Pure rotation kinematics on SO(3): constant rate (`docs/integrators.md` §7.4) and the
+//! time-varying "Problem K" (§7.5). Fields return **world-frame** angular velocities
 //! (`R' = ω̂R`), as every SO(3) block in this crate.
 
 use super::ExactProblem;
@@ -72,7 +72,7 @@ impl<T: Real> ExactProblem<T> for ConstantRate<T> {
     }
 }
 
-/// "Problem K" (ode-lie.md §4.7): `R(t) = Rz(a(t))·Rx(b(t))` with
+/// "Problem K" (`docs/integrators.md` §7.5): `R(t) = Rz(a(t))·Rx(b(t))` with
 /// `a(t) = 0.7t + 0.3 sin 2t`, `b(t) = 0.5 sin 1.3t`, `R(0) = I`, `T = 4`.
 ///
 /// Differentiating, `Ṙ = ȧ ẑ^ R + ḃ (Rz x̂)^ R`, so the **world-frame** rate is

@@ -1,4 +1,4 @@
-//! Scalar problems with closed forms (ode-lie.md §4.3): the logistic equation
+//! Scalar problems with closed forms (`docs/integrators.md` §7.2): the logistic equation
 //! (nonlinear) and `y' = k cos(t) y` (non-autonomous).
 
 use super::ExactProblem;
@@ -7,9 +7,9 @@ use evogs_math::Real;
 
 /// The logistic equation `y' = r y (1 − y)`, θ = `[r]`.
 ///
-/// Exact: `y(t) = 1/(1 + (1/y₀ − 1) e^{−r t})`. Reference setting (ode-lie.md §4.3,
+/// Exact: `y(t) = 1/(1 + (1/y₀ − 1) e^{−r t})`. Reference setting (`docs/integrators.md` §7.2,
 /// [`Default`]): `r = 1`, `y₀ = 0.1`, `T = 5`, `y = 1/(1 + 9e^{−t})`. Nonlinear, so every
-/// order condition matters (the fake RK4 of §2.1 shows slope 2 here).
+/// order condition matters (the fake RK4 of `docs/integrators.md` §2 shows slope 2 here).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Logistic<T> {
     /// Growth rate r (the parameter).
@@ -65,7 +65,7 @@ impl<T: Real> ExactProblem<T> for Logistic<T> {
 /// The non-autonomous growth `y' = k cos(t) y`, θ = `[k]`.
 ///
 /// Exact: `y(t) = y₀ e^{k sin t}` (from t = 0). Reference setting ([`Default`]): `k = 1`,
-/// `y₀ = 1`, `T = 4` (ode-lie.md §4.3). Only a non-autonomous problem sees a wrong node
+/// `y₀ = 1`, `T = 4` (`docs/integrators.md` §7.2). Only a non-autonomous problem sees a wrong node
 /// vector `c`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CosGrowth<T> {

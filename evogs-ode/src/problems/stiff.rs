@@ -1,4 +1,4 @@
-//! The dissipative adjoint stress test of ode-lie.md §4.10.
+//! The dissipative adjoint stress test of `docs/integrators.md` §7.9.
 
 use crate::VectorField;
 use evogs_math::Real;

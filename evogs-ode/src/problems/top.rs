@@ -1,4 +1,5 @@
-//! The torque-free rigid body (ode-lie.md §4.8 and §4.9): attitude and body rates coupled.
+//! The torque-free rigid body (`docs/integrators.md` §7.6 and §7.7): attitude and body rates
+//! coupled.
 
 use super::ExactProblem;
 use crate::{Block, StateLayout, VectorField};
@@ -17,7 +18,7 @@ use evogs_math::{Quat, Real, Vec3};
 ///
 /// Invariants: the energy `½ωᵀIω`, `|Iω|²`, and the **spatial** angular momentum
 /// `L = R I ω`. Energy and `|L|²` cannot see attitude errors; the spatial vector can
-/// (ode-lie.md §2.8).
+/// (`docs/integrators.md` §7.7).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigidBody<T> {
     /// Principal moments of inertia (the parameters).
@@ -94,7 +95,7 @@ impl<T: Real> VectorField<T> for RigidBody<T> {
     }
 }
 
-/// The torque-free **symmetric** top (`I₁ = I₂`), in closed form (ode-lie.md §4.8).
+/// The torque-free **symmetric** top (`I₁ = I₂`), in closed form (`docs/integrators.md` §7.6).
 ///
 /// With `λ = (I₃ − I₁)ω₃/I₁`, the body rate precesses, `ω(t) = Exp(λt e₃)·ω₀`, and the
 /// attitude is
@@ -177,8 +178,8 @@ impl<T: Real> ExactProblem<T> for SymmetricTop<T> {
     }
 }
 
-/// The torque-free **asymmetric** top (ode-lie.md §4.9): no elementary closed form, so it
-/// is checked through its invariants ([`RigidBody::energy`],
+/// The torque-free **asymmetric** top (`docs/integrators.md` §7.7): no elementary closed form,
+/// so it is checked through its invariants ([`RigidBody::energy`],
 /// [`RigidBody::momentum_squared`], [`RigidBody::spatial_momentum`]).
 ///
 /// Reference setting ([`Default`]): `I = (1, 2, 3)`, `ω₀ = (1, 0.1, 0.5)`, `R₀ = I`,

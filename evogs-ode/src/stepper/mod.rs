@@ -160,7 +160,7 @@ struct AdjointBuffers<T> {
 /// The SO(3) rule is the left-trivialised Runge–Kutta–Munthe-Kaas method: writing
 /// `R(t) = Exp(Ω(t))·Rₙ` for a world-frame rate (`R' = ω̂R`) gives the vector-space ODE
 /// `Ω' = dexp⁻¹_Ω(ω) = Jl⁻¹(Ω)·ω`, to which the tableau is applied for one step. On SO(3)
-/// `Jl⁻¹` has the closed form `I − ½Ω̂ + D(θ)Ω̂²` (ode-lie.md §2.5), so no commutator
+/// `Jl⁻¹` has the closed form `I − ½Ω̂ + D(θ)Ω̂²` (`docs/lie-groups.md` §4), so no commutator
 /// series is truncated and the method keeps the tableau's order (HLW Thm IV.8.5). With the
 /// Euler tableau it is Lie–Euler `R ← Exp(hω)R`; with classical RK4 it is RKMK4. Both are
 /// exact (to rounding) for a constant rate. On SE(3) the same holds with the world twist

@@ -18,8 +18,8 @@ impl<T: Real> Stepper<T> {
     /// The stages are recomputed from `y_n` (s field evaluations and s field VJPs). The
     /// first call allocates the reverse-pass buffers; later calls allocate nothing.
     ///
-    /// The transpose of the linearised step, processing the stages in reverse (ode-lie.md
-    /// §2.2 and §2.9). With λ the cotangent at `y_{n+1}` (tangent coordinates):
+    /// The transpose of the linearised step, processing the stages in reverse
+    /// (`docs/integrators.md` §4). With λ the cotangent at `y_{n+1}` (tangent coordinates):
     ///
     /// ```text
     /// update      Euclidean:  Ω̄ = λ                        (λₙ starts as λ)

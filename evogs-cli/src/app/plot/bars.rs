@@ -1,7 +1,9 @@
 //! Grouped bars: one group per labelled row, one bar per series, the value written on top.
 
-use super::canvas::{fill, fmt_tick, line, text, text_width};
-use image::{Rgb, RgbImage};
+use super::font::FAMILY;
+use super::png::{Area, render_png};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 /// One group of bars: a two-line label and a value per series (`None`: no bar).
@@ -15,26 +17,39 @@ pub struct BarGroup {
     pub values: Vec<Option<f64>>,
 }
 
-const COLORS: [Rgb<u8>; 6] = [
-    Rgb([30, 90, 200]),
-    Rgb([220, 110, 30]),
-    Rgb([120, 120, 120]),
-    Rgb([40, 160, 70]),
-    Rgb([170, 50, 160]),
-    Rgb([200, 40, 40]),
+const COLORS: [RGBColor; 6] = [
+    RGBColor(30, 90, 200),
+    RGBColor(220, 110, 30),
+    RGBColor(120, 120, 120),
+    RGBColor(40, 160, 70),
+    RGBColor(170, 50, 160),
+    RGBColor(200, 40, 40),
 ];
 const BAR_W: u32 = 26;
 const GAP: u32 = 24;
-const MARGIN_L: u32 = 60;
-const MARGIN_T: u32 = 50;
+const MARGIN_L: u32 = 70;
+const MARGIN_T: u32 = 64;
 const PLOT_H: u32 = 300;
-const MARGIN_B: u32 = 40;
+const MARGIN_B: u32 = 44;
+const TEXT: u32 = 12;
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+/// The width of `s` in the labels' font.
+fn text_width(s: &str) -> u32 {
+    (FAMILY, TEXT)
+        .into_font()
+        .box_size(s)
+        .map_or(8 * u32::try_from(s.len()).unwrap_or(0), |b| b.0)
+}
 
 /// Draws grouped bars of `groups` (a bar per entry of `series`, coloured in order, with a
 /// legend) under `title`, the y axis labelled `y_label`, and writes a PNG.
 ///
 /// # Errors
-/// Encoding or I/O failures.
+/// Drawing, encoding or I/O failures.
 pub fn save_bars(
     title: &str,
     y_label: &str,
@@ -42,6 +57,8 @@ pub fn save_bars(
     groups: &[BarGroup],
     path: &Path,
 ) -> Result<(), String> {
+    let fail = |e: String| format!("{}: cannot write the chart: {e}", path.display());
+    super::font::register().map_err(fail)?;
     let n_series = u32::try_from(series.len().max(1)).unwrap_or(1);
     let label_w = groups
         .iter()
@@ -53,16 +70,48 @@ pub fn save_bars(
     let legend_w: u32 = series.iter().map(|s| text_width(s) + 30).sum();
     let width = (MARGIN_L + n_groups * group_w + GAP).max(MARGIN_L + legend_w + 20);
     let height = MARGIN_T + PLOT_H + MARGIN_B;
-    let mut img = RgbImage::from_pixel(width, height, Rgb([255, 255, 255]));
-    let black = Rgb([30, 30, 30]);
-    let grey = Rgb([215, 215, 215]);
-    text(&mut img, MARGIN_L, 8, title, black);
-    let mut x = MARGIN_L;
+    render_png(path, (width, height), |root| {
+        let layout = Layout {
+            group_w,
+            n_series,
+            plot_w: width - MARGIN_L - GAP / 2,
+        };
+        draw(root, &layout, title, y_label, series, groups)
+    })
+    .map_err(fail)
+}
+
+/// Pixel sizes of a chart.
+struct Layout {
+    group_w: u32,
+    n_series: u32,
+    /// Width of the plotting area.
+    plot_w: u32,
+}
+
+fn draw(
+    root: &Area<'_>,
+    layout: &Layout,
+    title: &str,
+    y_label: &str,
+    series: &[&str],
+    groups: &[BarGroup],
+) -> Result<(), String> {
+    let black = RGBColor(30, 30, 30);
+    let text = TextStyle::from((FAMILY, TEXT)).color(&black);
+    root.draw_text(
+        title,
+        &TextStyle::from((FAMILY, 16)).color(&black),
+        (MARGIN_L as i32, 8),
+    )
+    .map_err(err)?;
+    let mut x = MARGIN_L as i32;
     for (i, s) in series.iter().enumerate() {
         let c = COLORS[i % COLORS.len()];
-        fill(&mut img, (x, 24), (x + 12, 31), c);
-        text(&mut img, x + 16, 24, s, black);
-        x += text_width(s) + 30;
+        root.draw(&Rectangle::new([(x, 34), (x + 12, 45)], c.filled()))
+            .map_err(err)?;
+        root.draw_text(s, &text, (x + 16, 33)).map_err(err)?;
+        x += i32::try_from(text_width(s) + 30).unwrap_or(0);
     }
     let values: Vec<f64> = groups
         .iter()
@@ -70,72 +119,53 @@ pub fn save_bars(
         .filter(|v| v.is_finite())
         .collect();
     let (lo, hi) = axis_range(&values);
-    let (y0, y1) = (f64::from(MARGIN_T), f64::from(MARGIN_T + PLOT_H));
-    let py = |v: f64| y1 - (v - lo) / (hi - lo) * (y1 - y0);
-    let (x0, x1) = (f64::from(MARGIN_L), f64::from(width - GAP / 2));
-    for k in 0..=5 {
-        let v = lo + (hi - lo) * f64::from(k) / 5.0;
-        line(&mut img, (x0, py(v)), (x1, py(v)), grey);
-        #[allow(
-            clippy::cast_possible_truncation,
-            clippy::cast_sign_loss,
-            reason = "inside the image"
-        )]
-        text(
-            &mut img,
-            4,
-            (py(v) as u32).saturating_sub(3),
-            &fmt_tick(v),
-            black,
-        );
-    }
-    text(&mut img, 4, MARGIN_T - 14, y_label, black);
+    let mut chart = ChartBuilder::on(root)
+        .margin_top(MARGIN_T)
+        .margin_right(GAP / 2)
+        .x_label_area_size(MARGIN_B)
+        .y_label_area_size(MARGIN_L)
+        .build_cartesian_2d(0.0..f64::from(layout.plot_w), lo..hi)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(0)
+        .y_labels(6)
+        .y_desc(y_label)
+        .label_style(text.clone())
+        .axis_desc_style(text.clone())
+        .draw()
+        .map_err(err)?;
+    let bars_w = layout.n_series * BAR_W;
+    let above = text.pos(Pos::new(HPos::Center, VPos::Bottom));
+    let below = text.pos(Pos::new(HPos::Center, VPos::Top));
     for (gi, g) in groups.iter().enumerate() {
-        let gx = MARGIN_L + GAP / 2 + u32::try_from(gi).unwrap_or(0) * group_w;
-        let bars_w = n_series * BAR_W;
-        let bx0 = gx + (group_w - GAP - bars_w) / 2;
+        let gx = GAP / 2 + u32::try_from(gi).unwrap_or(0) * layout.group_w;
+        let bx0 = gx + (layout.group_w - GAP - bars_w) / 2;
         for (si, v) in g.values.iter().enumerate() {
             let Some(v) = v.filter(|v| v.is_finite()) else {
                 continue;
             };
-            let bx = bx0 + u32::try_from(si).unwrap_or(0) * BAR_W;
-            #[allow(
-                clippy::cast_possible_truncation,
-                clippy::cast_sign_loss,
-                reason = "clamped inside the plot"
-            )]
-            let top = py(v.clamp(lo, hi)).round() as u32;
-            fill(
-                &mut img,
-                (bx + 2, top),
-                (bx + BAR_W - 2, MARGIN_T + PLOT_H),
-                COLORS[si % COLORS.len()],
-            );
-            let label = format!("{v:.1}");
-            let lx = (bx + BAR_W / 2).saturating_sub(text_width(&label) / 2);
-            text(&mut img, lx, top.saturating_sub(10), &label, black);
+            let bx = f64::from(bx0 + u32::try_from(si).unwrap_or(0) * BAR_W);
+            let top = v.clamp(lo, hi);
+            chart
+                .draw_series([Rectangle::new(
+                    [(bx + 2.0, top), (bx + f64::from(BAR_W) - 2.0, lo)],
+                    COLORS[si % COLORS.len()].filled(),
+                )])
+                .map_err(err)?;
+            let (px, py) = chart.backend_coord(&(bx + f64::from(BAR_W) / 2.0, top));
+            root.draw_text(&format!("{v:.1}"), &above, (px, py - 2))
+                .map_err(err)?;
         }
-        let cx = gx + (group_w - GAP) / 2;
-        let ly = MARGIN_T + PLOT_H + 8;
-        text(
-            &mut img,
-            cx.saturating_sub(text_width(&g.label) / 2),
-            ly,
-            &g.label,
-            black,
-        );
-        text(
-            &mut img,
-            cx.saturating_sub(text_width(&g.sublabel) / 2),
-            ly + 11,
-            &g.sublabel,
-            black,
-        );
+        let cx = f64::from(gx + (layout.group_w - GAP) / 2);
+        let (px, py) = chart.backend_coord(&(cx, lo));
+        root.draw_text(&g.label, &below, (px, py + 6))
+            .map_err(err)?;
+        root.draw_text(&g.sublabel, &below, (px, py + 6 + TEXT as i32 + 2))
+            .map_err(err)?;
     }
-    line(&mut img, (x0, y0), (x0, y1), black);
-    line(&mut img, (x0, y1), (x1, y1), black);
-    crate::data::image_io::save_rgb8(&img, path)
-        .map_err(|e| format!("{}: cannot write the chart: {e}", path.display()))
+    Ok(())
 }
 
 /// A y range that shows the differences between the bars: from a whole number below the
@@ -171,6 +201,21 @@ mod tests {
         assert_eq!(axis_range(&[]), (0.0, 1.0), "no values");
     }
 
+    /// The number of bars of colour `c`: runs of it along the row just above the x axis,
+    /// which every bar crosses and no text does (anti-aliased text has grey pixels too).
+    fn bars_of(img: &image::RgbImage, c: RGBColor) -> usize {
+        let c = image::Rgb([c.0, c.1, c.2]);
+        let y = MARGIN_T + PLOT_H - 3;
+        let mut runs = 0;
+        let mut inside = false;
+        for x in 0..img.width() {
+            let on = *img.get_pixel(x, y) == c;
+            runs += usize::from(on && !inside);
+            inside = on;
+        }
+        runs
+    }
+
     #[test]
     fn a_chart_is_written_with_one_bar_per_value() {
         let dir = std::env::temp_dir().join(format!("evogs-bars-{}", std::process::id()));
@@ -197,11 +242,11 @@ mod tests {
         )
         .expect("written");
         let img = image::open(&path).expect("readable PNG").to_rgb8();
-        // The first series' colour appears (its bars are drawn) and so does the third's
-        // (one bar, in the second group).
-        let count = |c: Rgb<u8>| img.pixels().filter(|p| **p == c).count();
-        assert!(count(COLORS[0]) > 2 * 200, "two velocity bars");
-        assert!(count(COLORS[2]) > 100, "one static bar");
+        assert_eq!(img.height(), MARGIN_T + PLOT_H + MARGIN_B, "height");
+        assert!(img.width() >= MARGIN_L + 2 * 3 * BAR_W, "width");
+        assert_eq!(bars_of(&img, COLORS[0]), 2, "two velocity bars");
+        assert_eq!(bars_of(&img, COLORS[1]), 2, "two deformation bars");
+        assert_eq!(bars_of(&img, COLORS[2]), 1, "one static bar");
         std::fs::remove_dir_all(&dir).ok();
     }
 }

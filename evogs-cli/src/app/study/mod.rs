@@ -6,7 +6,7 @@
 //!
 //! ```text
 //! OUT/study.json  study.md  study.png
-//! OUT/runs/<protocol>-<motion>-s<k>/   config.toml checkpoint.bin log.csv ... study-run.json
+//! OUT/runs/<protocol>-<motion>-s<k>/   config.toml checkpoint.safetensors log.csv ... study-run.json
 //! ```
 //!
 //! A study is resumable: a run with a `study-run.json` is not trained again (its metrics are
@@ -26,10 +26,10 @@ pub use report::{Cell, CostRow, Provenance, Row, RunRecord, SetMetrics, Stat, St
 use super::Reporter;
 use super::error::CommandError;
 use super::load::load_dataset;
-use super::paths::shipped_scene;
+use super::paths::{RunFolder, shipped_scene};
 use super::plot::{BarGroup, save_bars};
 use super::train::{TrainArgs, resolve_config};
-use crate::config::TrainConfig;
+use crate::config::{Preset, TrainConfig};
 use crate::model::Motion;
 use progress::{ChannelReporter, Message, StudyProgress};
 use runner::{PlannedRun, RunState, execute, read_record, write_atomic};
@@ -49,7 +49,7 @@ pub struct StudyArgs {
     /// Motions, in column order.
     pub motions: Vec<Motion>,
     /// Preset (`fast` by default).
-    pub preset: Option<String>,
+    pub preset: Option<Preset>,
     /// Configuration file overlaid on the preset.
     pub config: Option<PathBuf>,
     /// Iterations per run (default: the preset's).
@@ -190,7 +190,7 @@ fn plan(
                     data: Some(data.to_path_buf()),
                     out: args.out.join(&folder),
                     config: args.config.clone(),
-                    preset: args.preset.clone(),
+                    preset: args.preset,
                     motion: Some(m),
                     iters: args.iters,
                     seed: Some(seed),
@@ -245,7 +245,7 @@ fn state_of(run: &PlannedRun, force: bool) -> Result<RunState, CommandError> {
             Err(other("a finished run"))
         };
     }
-    if run.args.out.join("checkpoint.bin").is_file() {
+    if RunFolder::new(&run.args.out).checkpoint().is_file() {
         return match stored_config_hash(&run.args.out) {
             Some(h) if h == run.config_hash => Ok(RunState::Resume),
             _ => Err(other("a checkpoint")),
@@ -273,7 +273,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
     }
     let base = resolve_config(&TrainArgs {
         config: args.config.clone(),
-        preset: args.preset.clone(),
+        preset: args.preset,
         iters: args.iters,
         ..TrainArgs::default()
     })?;
@@ -343,7 +343,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
                 .unwrap_or_else(|_| data.clone())
                 .display()
                 .to_string(),
-            preset: base.preset.clone(),
+            preset: base.preset.to_string(),
             config_file: args.config.as_ref().map(|p| p.display().to_string()),
             config_hash: config_hash(&base.to_toml()),
             iterations: base.schedule.iterations,

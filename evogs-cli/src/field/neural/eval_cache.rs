@@ -2,7 +2,8 @@
 //! positions, time and parameter generation, reused by a VJP at the same input
 //! (least-recently-used replacement).
 
-use super::{CHUNK, NeuralField};
+use super::NeuralField;
+use crate::field::chunk::CHUNK;
 use crate::field::chunk::ChunkScratch;
 use crate::field::gemm::Gemm;
 
