@@ -8,6 +8,7 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use evogs_cli::app::Reporter;
+use evogs_cli::app::bench::{BenchArgs, parse_bench_motions, parse_sizes, run_bench};
 use evogs_cli::app::evaluate::{evaluate_run, parse_range};
 use evogs_cli::app::export::{SEQUENCE_FILE, export, export_sequence};
 use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
@@ -147,6 +148,40 @@ enum Cmd {
     /// Check every VJP of the stack and the end-to-end training step against central
     /// differences in f64; print the worst errors per group.
     CheckGrad,
+    /// Time training iterations on a synthetic scene (seeded random Gaussians, one 400x400
+    /// view at t = 0.45, RK4 from t = 0 in steps of 1/8): per field size and motion the
+    /// seconds per iteration, a breakdown by phase, peak memory, the GFLOP/s of the field's
+    /// matrix products and the speed-up over one thread (docs/performance.md).
+    Bench {
+        /// Gaussians in the scene.
+        #[arg(long, default_value_t = 20_000, allow_negative_numbers = true, value_parser = positive_count)]
+        gaussians: u64,
+        /// Untimed iterations before the timed ones (per configuration and thread count).
+        #[arg(long, default_value_t = 2, allow_negative_numbers = true, value_parser = whole_count)]
+        warmup: u64,
+        /// Timed iterations (per configuration and thread count).
+        #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = positive_count)]
+        iters: u64,
+        /// Motions, comma-separated: velocity, deformation.
+        #[arg(long, default_value = "velocity,deformation")]
+        motions: String,
+        /// Field sizes, comma-separated: paper (HexPlane 2 levels x 32 channels at 64^3 x 25,
+        /// MLP 64 wide), fast (2 levels x 16 channels at 32^3 x 16, MLP 32 wide).
+        #[arg(long, default_value = "paper,fast")]
+        sizes: String,
+        /// Threads of the pool (default: `RAYON_NUM_THREADS` or the logical CPUs).
+        #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
+        threads: Option<u64>,
+        /// Skip the one-thread runs (no speed-up column).
+        #[arg(long)]
+        no_single_thread: bool,
+        /// Also write every figure to this JSON file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Scene seed.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+    },
     /// Export the Gaussians at time T as a standard 3DGS .ply, or a sequence of them at
     /// times A:B:N (a folder of .ply files and sequence.json).
     Export {
@@ -168,6 +203,14 @@ enum Cmd {
         #[arg(long)]
         out: PathBuf,
     },
+}
+
+/// A whole number of at least 0 (warm-up iterations), with a message that says so for `-1`
+/// or `1.5`.
+fn whole_count(s: &str) -> Result<u64, String> {
+    s.trim()
+        .parse::<u64>()
+        .map_err(|_| format!("`{s}` is not a whole number of at least 0"))
 }
 
 /// The frame options `render` and `inject` share.
@@ -430,6 +473,39 @@ fn run(cli: Cli) -> Result<()> {
             println!("{} frames written to {}", o.count, o.dir.display());
             if let Some(g) = o.gif {
                 println!("gif: {}", g.display());
+            }
+        }
+        Cmd::Bench {
+            gaussians,
+            warmup,
+            iters,
+            motions,
+            sizes,
+            threads,
+            no_single_thread,
+            json,
+            seed,
+        } => {
+            let args = BenchArgs {
+                gaussians: usize::try_from(gaussians)
+                    .map_err(|_| anyhow::anyhow!("--gaussians: {gaussians} is too large"))?,
+                warmup,
+                iters,
+                motions: parse_bench_motions(&motions)
+                    .map_err(|e| anyhow::anyhow!("--motions: {e}"))?,
+                sizes: parse_sizes(&sizes).map_err(|e| anyhow::anyhow!("--sizes: {e}"))?,
+                threads: threads
+                    .map(usize::try_from)
+                    .transpose()
+                    .map_err(|_| anyhow::anyhow!("--threads: too large"))?,
+                single_thread: !no_single_thread,
+                json,
+                seed,
+            };
+            let report = run_bench(&args, &mut term)?;
+            print!("{}", report.table());
+            if let Some(p) = &args.json {
+                println!("\nreport: {}", p.display());
             }
         }
         Cmd::Export {

@@ -2,6 +2,7 @@
 //! arguments): training, evaluation, rendering, export, studies. Output goes through a [`Reporter`];
 //! the library never prints.
 
+pub mod bench;
 pub mod error;
 pub mod evaluate;
 pub mod export;

@@ -12,6 +12,7 @@
 //! weights (gain 1), zero biases: the initial velocity is small but not zero.
 
 use super::gemm::{Gemm, row_major, transposed};
+use super::profile::{FieldProfile, GemmTimer};
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
 
@@ -96,6 +97,32 @@ impl Mlp {
         self.scales_offset() + 3
     }
 
+    /// Floating-point operations of the matrix products of [`forward`](Self::forward) per
+    /// row (a multiply-add counts 2): trunk `2·F·W`, fused heads `2·W·3W`, outputs
+    /// `3·2·W·3`.
+    #[must_use]
+    pub const fn forward_flops_per_row(&self) -> u64 {
+        let (f, w) = (self.input as u64, self.width as u64);
+        2 * f * w + 6 * w * w + 18 * w
+    }
+
+    /// Floating-point operations of the matrix products of [`backward`](Self::backward) per
+    /// row: per head the weight gradient and the input gradient of the output layer
+    /// (`2·3·W` each), then those of the fused heads (`2·3W·W` each) and of the trunk
+    /// (`2·W·F` each).
+    #[must_use]
+    pub const fn backward_flops_per_row(&self) -> u64 {
+        let (f, w) = (self.input as u64, self.width as u64);
+        36 * w + 12 * w * w + 4 * w * f
+    }
+
+    /// Floating-point operations of the matrix products of `forward_rows` rows forward and
+    /// `backward_rows` rows backward.
+    #[must_use]
+    pub const fn gemm_flops(&self, forward_rows: u64, backward_rows: u64) -> u64 {
+        forward_rows * self.forward_flops_per_row() + backward_rows * self.backward_flops_per_row()
+    }
+
     /// Xavier-uniform weights, zero biases, output scales `scales`; with `zero_output` the
     /// last layer of each head starts at zero (the field is then exactly zero at first, and
     /// only the last layers receive gradient in the first step).
@@ -144,7 +171,8 @@ impl Mlp {
     }
 
     /// Forward pass for `rows` rows of `features` (rows × F, row-major); writes the scaled
-    /// outputs (rows × 9) and keeps the activations.
+    /// outputs (rows × 9) and keeps the activations. With a `profile`, the time spent in the
+    /// matrix products is added to it.
     pub fn forward<T: Gemm>(
         &self,
         params: &[T],
@@ -152,26 +180,32 @@ impl Mlp {
         rows: usize,
         act: &mut MlpActivations<T>,
         out: &mut [T],
+        profile: Option<&FieldProfile>,
     ) {
         let (f, w) = (self.input, self.width);
         let p = params;
+        let mut gemm = GemmTimer::new(profile);
         fill_rows(&mut act.trunk[..rows * w], &p[self.b0()..self.w1()]);
-        T::gemm(
-            T::ONE,
-            row_major(&features[..rows * f], rows, f),
-            transposed(&p[..self.b0()], w, f),
-            T::ONE,
-            (&mut act.trunk[..rows * w], rows, w, w, 1),
-        );
+        gemm.time(|| {
+            T::gemm(
+                T::ONE,
+                row_major(&features[..rows * f], rows, f),
+                transposed(&p[..self.b0()], w, f),
+                T::ONE,
+                (&mut act.trunk[..rows * w], rows, w, w, 1),
+            );
+        });
         relu(&act.trunk[..rows * w], &mut act.trunk_relu[..rows * w]);
         fill_rows(&mut act.heads[..rows * 3 * w], &p[self.b1()..self.w2()]);
-        T::gemm(
-            T::ONE,
-            row_major(&act.trunk_relu[..rows * w], rows, w),
-            transposed(&p[self.w1()..self.b1()], 3 * w, w),
-            T::ONE,
-            (&mut act.heads[..rows * 3 * w], rows, 3 * w, 3 * w, 1),
-        );
+        gemm.time(|| {
+            T::gemm(
+                T::ONE,
+                row_major(&act.trunk_relu[..rows * w], rows, w),
+                transposed(&p[self.w1()..self.b1()], 3 * w, w),
+                T::ONE,
+                (&mut act.heads[..rows * 3 * w], rows, 3 * w, 3 * w, 1),
+            );
+        });
         relu(
             &act.heads[..rows * 3 * w],
             &mut act.heads_relu[..rows * 3 * w],
@@ -182,13 +216,15 @@ impl Mlp {
         );
         for h in 0..3 {
             let w2 = &p[self.w2() + 3 * h * w..self.w2() + 3 * (h + 1) * w];
-            T::gemm(
-                T::ONE,
-                (&act.heads_relu[h * w..], rows, w, 3 * w, 1),
-                transposed(w2, 3, w),
-                T::ONE,
-                (&mut act.raw[3 * h..], rows, 3, N_OUT, 1),
-            );
+            gemm.time(|| {
+                T::gemm(
+                    T::ONE,
+                    (&act.heads_relu[h * w..], rows, w, 3 * w, 1),
+                    transposed(w2, 3, w),
+                    T::ONE,
+                    (&mut act.raw[3 * h..], rows, 3, N_OUT, 1),
+                );
+            });
         }
         let scales = &p[self.scales_offset()..self.n_params()];
         for (o, r) in out[..rows * N_OUT]
@@ -203,7 +239,8 @@ impl Mlp {
 
     /// Backward pass after [`forward`](Self::forward) on the same rows: given `d_out`
     /// (rows × 9), **adds** the parameter gradient into `d_params` (this MLP's slice) and
-    /// **writes** `d_features` (rows × F).
+    /// **writes** `d_features` (rows × F). With a `profile`, the time spent in the matrix
+    /// products is added to it.
     pub fn backward<T: Gemm>(
         &self,
         params: &[T],
@@ -213,9 +250,11 @@ impl Mlp {
         d_out: &[T],
         d_features: &mut [T],
         d_params: &mut [T],
+        profile: Option<&FieldProfile>,
     ) {
         let (f, w) = (self.input, self.width);
         let p = params;
+        let mut gemm = GemmTimer::new(profile);
         let so = self.scales_offset();
         for ((dr, d), r) in act.d_raw[..rows * N_OUT]
             .chunks_exact_mut(N_OUT)
@@ -235,21 +274,25 @@ impl Mlp {
         for h in 0..3 {
             let w2 = self.w2() + 3 * h * w;
             // dW2_h += d_raw_hᵀ · relu(H_h)
-            T::gemm(
-                T::ONE,
-                (&act.d_raw[3 * h..], 3, rows, 1, N_OUT),
-                (&act.heads_relu[h * w..], rows, w, 3 * w, 1),
-                T::ONE,
-                (&mut d_params[w2..w2 + 3 * w], 3, w, w, 1),
-            );
+            gemm.time(|| {
+                T::gemm(
+                    T::ONE,
+                    (&act.d_raw[3 * h..], 3, rows, 1, N_OUT),
+                    (&act.heads_relu[h * w..], rows, w, 3 * w, 1),
+                    T::ONE,
+                    (&mut d_params[w2..w2 + 3 * w], 3, w, w, 1),
+                );
+            });
             // d relu(H_h) = d_raw_h · W2_h
-            T::gemm(
-                T::ONE,
-                (&act.d_raw[3 * h..], rows, 3, N_OUT, 1),
-                row_major(&p[w2..w2 + 3 * w], 3, w),
-                T::ZERO,
-                (&mut act.d_heads[h * w..], rows, w, 3 * w, 1),
-            );
+            gemm.time(|| {
+                T::gemm(
+                    T::ONE,
+                    (&act.d_raw[3 * h..], rows, 3, N_OUT, 1),
+                    row_major(&p[w2..w2 + 3 * w], 3, w),
+                    T::ZERO,
+                    (&mut act.d_heads[h * w..], rows, w, 3 * w, 1),
+                );
+            });
         }
         relu_mask(&act.heads[..rows * 3 * w], &mut act.d_heads[..rows * 3 * w]);
         col_sums(
@@ -257,40 +300,48 @@ impl Mlp {
             3 * w,
             &mut d_params[self.b1()..self.w2()],
         );
-        T::gemm(
-            T::ONE,
-            transposed(&act.d_heads[..rows * 3 * w], rows, 3 * w),
-            row_major(&act.trunk_relu[..rows * w], rows, w),
-            T::ONE,
-            (&mut d_params[self.w1()..self.b1()], 3 * w, w, w, 1),
-        );
-        T::gemm(
-            T::ONE,
-            row_major(&act.d_heads[..rows * 3 * w], rows, 3 * w),
-            row_major(&p[self.w1()..self.b1()], 3 * w, w),
-            T::ZERO,
-            (&mut act.d_trunk[..rows * w], rows, w, w, 1),
-        );
+        gemm.time(|| {
+            T::gemm(
+                T::ONE,
+                transposed(&act.d_heads[..rows * 3 * w], rows, 3 * w),
+                row_major(&act.trunk_relu[..rows * w], rows, w),
+                T::ONE,
+                (&mut d_params[self.w1()..self.b1()], 3 * w, w, w, 1),
+            );
+        });
+        gemm.time(|| {
+            T::gemm(
+                T::ONE,
+                row_major(&act.d_heads[..rows * 3 * w], rows, 3 * w),
+                row_major(&p[self.w1()..self.b1()], 3 * w, w),
+                T::ZERO,
+                (&mut act.d_trunk[..rows * w], rows, w, w, 1),
+            );
+        });
         relu_mask(&act.trunk[..rows * w], &mut act.d_trunk[..rows * w]);
         col_sums(
             &act.d_trunk[..rows * w],
             w,
             &mut d_params[self.b0()..self.w1()],
         );
-        T::gemm(
-            T::ONE,
-            transposed(&act.d_trunk[..rows * w], rows, w),
-            row_major(&features[..rows * f], rows, f),
-            T::ONE,
-            (&mut d_params[..self.b0()], w, f, f, 1),
-        );
-        T::gemm(
-            T::ONE,
-            row_major(&act.d_trunk[..rows * w], rows, w),
-            row_major(&p[..self.b0()], w, f),
-            T::ZERO,
-            (&mut d_features[..rows * f], rows, f, f, 1),
-        );
+        gemm.time(|| {
+            T::gemm(
+                T::ONE,
+                transposed(&act.d_trunk[..rows * w], rows, w),
+                row_major(&features[..rows * f], rows, f),
+                T::ONE,
+                (&mut d_params[..self.b0()], w, f, f, 1),
+            );
+        });
+        gemm.time(|| {
+            T::gemm(
+                T::ONE,
+                row_major(&act.d_trunk[..rows * w], rows, w),
+                row_major(&p[..self.b0()], w, f),
+                T::ZERO,
+                (&mut d_features[..rows * f], rows, f, f, 1),
+            );
+        });
     }
 }
 
@@ -319,5 +370,24 @@ fn col_sums<T: Real>(m: &[T], cols: usize, out: &mut [T]) {
         for (o, &v) in out.iter_mut().zip(row) {
             *o += v;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flop_counts_follow_the_layer_shapes() {
+        // Paper size: F = 2 levels × 32 channels, W = 64. Forward: 64·64 + 64·192 + 3·64·3
+        // multiply-adds per row; backward: twice that (weight and input gradients).
+        let m = Mlp {
+            input: 64,
+            width: 64,
+        };
+        let fwd_madds = 64 * 64 + 64 * 192 + 3 * 64 * 3;
+        assert_eq!(m.forward_flops_per_row(), 2 * fwd_madds, "forward");
+        assert_eq!(m.backward_flops_per_row(), 4 * fwd_madds, "backward");
+        assert_eq!(m.gemm_flops(3, 2), (3 * 2 + 2 * 4) * fwd_madds, "total");
     }
 }

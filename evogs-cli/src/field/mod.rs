@@ -5,6 +5,7 @@ pub mod gemm;
 pub mod hexplane;
 pub mod mlp;
 pub mod neural;
+pub mod profile;
 pub mod regularize;
 
 pub use chunk::CHUNK;
@@ -12,3 +13,4 @@ pub use gemm::Gemm;
 pub use hexplane::{HexPlane, HexPlaneConfig, TimeMapping};
 pub use mlp::Mlp;
 pub use neural::{NeuralField, NeuralFieldConfig, gaussian_layout};
+pub use profile::{FieldProfile, FieldTimes};

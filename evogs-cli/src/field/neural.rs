@@ -18,10 +18,13 @@ use super::chunk::{CHUNK, ChunkScratch, decode_chunk_vjp, encode_chunk};
 use super::gemm::Gemm;
 use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
+use super::profile::FieldProfile;
 use eval_cache::Evaluation;
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Par, Vec3};
 use evogs_ode::{Block, StateLayout, VectorField};
+use std::sync::Arc;
+use std::time::Instant;
 
 mod eval_cache;
 
@@ -98,6 +101,8 @@ pub struct NeuralField<T> {
     twist: bool,
     /// Use counter for the least-recently-used replacement.
     clock: u64,
+    /// Opt-in timing ([`set_profile`](Self::set_profile)).
+    profile: Option<Arc<FieldProfile>>,
 }
 
 impl<T: Gemm> NeuralField<T> {
@@ -139,6 +144,7 @@ impl<T: Gemm> NeuralField<T> {
             generation: 0,
             twist: cfg.twist,
             clock: 0,
+            profile: None,
         }
     }
 
@@ -191,6 +197,11 @@ impl<T: Gemm> NeuralField<T> {
     pub fn set_par(&mut self, par: Par) {
         self.par = par;
     }
+    /// Attaches a [`FieldProfile`] that accumulates the time of every batched evaluation,
+    /// VJP and matrix product from now on (`None` detaches it; results never depend on it).
+    pub fn set_profile(&mut self, profile: Option<Arc<FieldProfile>>) {
+        self.profile = profile;
+    }
 
     /// Evaluates the field at `n` positions (position `i` at `positions[i·stride..i·stride+3]`)
     /// and time `t`; writes `[v, ω, ṡ]` into `out[i·9..i·9+9]`.
@@ -213,6 +224,23 @@ impl<T: Gemm> NeuralField<T> {
     /// # Panics
     /// If the buffers are too short for `n`.
     pub fn eval_heads(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
+        let start = self.profile.as_ref().map(|_| Instant::now());
+        let fresh = self.eval_heads_untimed(t, positions, stride, n, out);
+        if let (Some(p), Some(start)) = (&self.profile, start) {
+            p.add_evaluation(start, if fresh { n } else { 0 });
+        }
+    }
+
+    /// [`eval_heads`](Self::eval_heads) without the profile; `false` when a stored
+    /// evaluation answered.
+    fn eval_heads_untimed(
+        &mut self,
+        t: T,
+        positions: &[T],
+        stride: usize,
+        n: usize,
+        out: &mut [T],
+    ) -> bool {
         assert!(
             n == 0 || (positions.len() >= (n - 1) * stride + 3 && out.len() >= n * N_OUT),
             "batch buffers too short"
@@ -236,11 +264,12 @@ impl<T: Gemm> NeuralField<T> {
                     }
                 }
             }
-            return;
+            return false;
         }
         let slot = self.claim_eval(t, positions, stride, n);
         self.touch(slot);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
+        let profile = self.profile.as_deref();
         let scratches = &mut self.evals[slot].chunks[..n_chunks];
         let run = |(ci, (out_c, scratch)): (usize, (&mut [T], &mut ChunkScratch<T>))| {
             let rows = out_c.len() / N_OUT;
@@ -252,6 +281,7 @@ impl<T: Gemm> NeuralField<T> {
                 rows,
                 &mut scratch.act,
                 out_c,
+                profile,
             );
         };
         match self.par {
@@ -270,6 +300,7 @@ impl<T: Gemm> NeuralField<T> {
                     .for_each(run);
             }
         }
+        true
     }
 
     /// VJP of [`eval_batch`](Self::eval_batch): given `d_out` (n × 9), **adds**
@@ -331,7 +362,8 @@ impl<T: Gemm> NeuralField<T> {
         );
     }
 
-    /// The VJP of the heads, plus the twist's `ω × (x − c)` term when `twist`.
+    /// The VJP of the heads, plus the twist's `ω × (x − c)` term when `twist` (timed when a
+    /// profile is attached).
     fn vjp(
         &mut self,
         t: T,
@@ -344,6 +376,37 @@ impl<T: Gemm> NeuralField<T> {
         d_params: &mut [T],
         twist: bool,
     ) {
+        let start = self.profile.as_ref().map(|_| Instant::now());
+        let recomputed = self.vjp_untimed(
+            t,
+            positions,
+            stride,
+            n,
+            d_out,
+            d_positions,
+            d_stride,
+            d_params,
+            twist,
+        );
+        if let (Some(p), Some(start)) = (&self.profile, start) {
+            p.add_vjp(start, n, recomputed);
+        }
+    }
+
+    /// [`vjp`](Self::vjp) without the profile; `true` when the forward pass was recomputed
+    /// (no stored evaluation of this input).
+    fn vjp_untimed(
+        &mut self,
+        t: T,
+        positions: &[T],
+        stride: usize,
+        n: usize,
+        d_out: &[T],
+        d_positions: &mut [T],
+        d_stride: usize,
+        d_params: &mut [T],
+        twist: bool,
+    ) -> bool {
         assert!(
             d_out.len() >= n * N_OUT && d_params.len() == self.params.len(),
             "vjp buffers have the wrong size"
@@ -364,6 +427,7 @@ impl<T: Gemm> NeuralField<T> {
         };
         self.touch(slot);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
+        let profile = self.profile.as_deref();
         let twist = self
             .twist_centre()
             .filter(|_| twist)
@@ -381,6 +445,7 @@ impl<T: Gemm> NeuralField<T> {
                     rows,
                     &mut scratch.act,
                     &mut out[..rows * N_OUT],
+                    profile,
                 );
             }
             let mut d_o = &d_out[ci * CHUNK * N_OUT..ci * CHUNK * N_OUT + rows * N_OUT];
@@ -410,6 +475,7 @@ impl<T: Gemm> NeuralField<T> {
                 d_o,
                 d_features,
                 partial,
+                profile,
             );
             decode_chunk_vjp(hex, params, t, pos, stride, rows, scratch, lks, dss, dp);
             if let Some((_, omega_scale)) = twist {
@@ -463,6 +529,7 @@ impl<T: Gemm> NeuralField<T> {
             }
         }
         self.scatter_planes(n, &mut d_params[..off]);
+        !stored
     }
 
     /// Adds the stored per-lookup sample gradients into the plane gradients, plane by plane

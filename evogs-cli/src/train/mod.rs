@@ -5,6 +5,7 @@ pub mod coherence;
 pub mod densify;
 pub mod frames;
 pub mod optim;
+pub mod render_pass;
 pub mod step;
 pub mod trainer;
 pub mod views;

@@ -17,13 +17,14 @@ use crate::field::Gemm;
 use crate::field::regularize::{PlaneRegWeights, plane_regularizers};
 use crate::model::{Model, ModelGrad, Motion, Waypoints};
 use crate::train::coherence::{COHERENCE_K, coherence_loss, twist_coherence_loss};
+use crate::train::render_pass::{RenderTimes, render_backward, render_forward};
 use evogs_math::{Par, Real, Vec3};
 use evogs_ode::Stepper;
 use evogs_splat::loss::photometric_loss_and_grad;
 use evogs_splat::ssim::SsimWorkspace;
 use evogs_splat::{
     CameraGrad, DensifyStats, Image, PinholeCamera, PixelGrad, RasterInputGrad, Render, RenderGrad,
-    RenderOptions, Splats, TiledRasterizer, render_tiled_into, render_tiled_vjp_into,
+    RenderOptions, Splats, TiledRasterizer,
 };
 use std::sync::Arc;
 
@@ -83,12 +84,34 @@ pub struct StepLosses {
 pub struct StepTimings {
     /// Gaussians at t (ODE integration or displacement).
     pub dynamics: f64,
-    /// Render, loss and render VJP.
+    /// Render, loss and render VJP (the four entries below and their glue).
     pub render: f64,
+    /// Of `render`: projection and SH colours, forward and VJP.
+    pub projection: f64,
+    /// Of `render`: rasterization (binning, sorting, compositing).
+    pub raster_forward: f64,
+    /// Of `render`: the rasterization VJP.
+    pub raster_backward: f64,
+    /// Of `render`: the photometric loss (L1, SSIM) and its image gradient.
+    pub loss: f64,
     /// Back through the dynamics (discrete adjoint or displacement VJP).
     pub adjoint: f64,
     /// Regularisers, coherence and anchor loss.
     pub extra: f64,
+}
+
+impl StepTimings {
+    /// Adds another view's timings (all entries).
+    pub fn add(&mut self, o: &Self) {
+        self.dynamics += o.dynamics;
+        self.render += o.render;
+        self.projection += o.projection;
+        self.raster_forward += o.raster_forward;
+        self.raster_backward += o.raster_backward;
+        self.loss += o.loss;
+        self.adjoint += o.adjoint;
+        self.extra += o.extra;
+    }
 }
 
 /// Reusable buffers of the step.
@@ -194,9 +217,7 @@ pub fn batch_loss_and_grad<T: Gemm>(
         losses.l1 += weight * l.l1;
         losses.ssim += weight * l.ssim;
         losses.mse += weight * l.mse;
-        losses.timings.dynamics += l.timings.dynamics;
-        losses.timings.render += l.timings.render;
-        losses.timings.adjoint += l.timings.adjoint;
+        losses.timings.add(&l.timings);
         match &mut batch_stats {
             None => batch_stats = Some(st),
             Some(acc) => {
@@ -239,7 +260,16 @@ pub fn view_loss_and_grad<T: Gemm>(
             opts.background,
         ),
     });
-    render_tiled_into(&splats_t, &view.camera, opts, &mut ws.rasterizer, &mut fwd);
+    let mut phases = RenderTimes::default();
+    render_forward(
+        &splats_t,
+        &view.camera,
+        opts,
+        &mut ws.rasterizer,
+        &mut fwd,
+        &mut phases,
+    );
+    let loss_start = std::time::Instant::now();
     let (w, h) = (view.image.width(), view.image.height());
     let mut d_image = ws
         .d_image
@@ -256,6 +286,7 @@ pub fn view_loss_and_grad<T: Gemm>(
         &mut d_image,
         opts.par,
     );
+    timings.loss = loss_start.elapsed().as_secs_f64();
     let mut g = ws.render_grad.take().unwrap_or_else(|| RenderGrad {
         splats: Splats::default(),
         camera: CameraGrad::zero(),
@@ -263,7 +294,7 @@ pub fn view_loss_and_grad<T: Gemm>(
         background: [T::ZERO; 3],
         densify: DensifyStats::default(),
     });
-    render_tiled_vjp_into(
+    render_backward(
         &splats_t,
         &view.camera,
         opts,
@@ -275,8 +306,12 @@ pub fn view_loss_and_grad<T: Gemm>(
             depth: None,
         },
         &mut g,
+        &mut phases,
     );
     timings.render = clock.elapsed().as_secs_f64() - timings.dynamics;
+    timings.projection = phases.projection;
+    timings.raster_forward = phases.raster_forward;
+    timings.raster_backward = phases.raster_backward;
     model.backward_at(&tape, &mut ws.stepper, &g.splats, grad);
     timings.adjoint = clock.elapsed().as_secs_f64() - timings.dynamics - timings.render;
     let mse = evogs_splat::metrics::mse(&fwd.raster.rgb, &view.image).to_f64();
