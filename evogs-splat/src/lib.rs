@@ -47,5 +47,5 @@ pub use raster_tiled::{ExpMode, TiledRasterizer, rasterize_tiled};
 pub use raster_tiled_vjp::{DensifyStats, rasterize_tiled_vjp};
 pub use render::{
     Render, RenderGrad, render, render_tiled, render_tiled_into, render_tiled_vjp,
-    render_tiled_vjp_into, render_vjp,
+    render_tiled_vjp_compositing, render_tiled_vjp_into, render_tiled_vjp_projection, render_vjp,
 };

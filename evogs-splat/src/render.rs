@@ -201,7 +201,25 @@ pub fn render_tiled_vjp_into<T: Real>(
     d: &PixelGrad<'_, T>,
     grad: &mut RenderGrad<T>,
 ) {
-    grad.raster.reset(splats.len());
+    render_tiled_vjp_compositing(splats.len(), opts, rast, fwd, d, grad);
+    render_tiled_vjp_projection(splats, camera, opts, fwd, grad);
+}
+
+/// The first phase of [`render_tiled_vjp_into`]: the compositing VJP of `n` Gaussians into
+/// `grad.raster`, `grad.background` and `grad.densify` (callers that time the phases call
+/// the two halves themselves).
+///
+/// # Panics
+/// If the shapes disagree.
+pub fn render_tiled_vjp_compositing<T: Real>(
+    n: usize,
+    opts: &RenderOptions<T>,
+    rast: &mut TiledRasterizer<T>,
+    fwd: &Render<T>,
+    d: &PixelGrad<'_, T>,
+    grad: &mut RenderGrad<T>,
+) {
+    grad.raster.reset(n);
     grad.background = rast.backward(
         &fwd.pre,
         opts.background,
@@ -211,6 +229,20 @@ pub fn render_tiled_vjp_into<T: Real>(
         &mut grad.raster,
         &mut grad.densify,
     );
+}
+
+/// The second phase of [`render_tiled_vjp_into`]: the projection and colour VJP from
+/// `grad.raster` into `grad.splats` (overwritten) and `grad.camera`.
+///
+/// # Panics
+/// If the shapes disagree.
+pub fn render_tiled_vjp_projection<T: Real>(
+    splats: &Splats<T>,
+    camera: &PinholeCamera<T>,
+    opts: &RenderOptions<T>,
+    fwd: &Render<T>,
+    grad: &mut RenderGrad<T>,
+) {
     if grad.splats.len() == splats.len() && grad.splats.sh_degree == splats.sh_degree {
         grad.splats.fill_zero();
     } else {

@@ -1,7 +1,8 @@
-//! The render half of a training step with the time of each phase: the same calls, in the
-//! same order, as [`render_tiled_into`] (projection, then rasterization) and
-//! [`render_tiled_vjp_into`] (rasterization VJP, then projection VJP), with a clock read
-//! between them. Results are those of the two library functions, bit for bit.
+//! The render half of a training step with the time of each phase: the phases of
+//! [`render_tiled_into`] (projection, then rasterization) and [`render_tiled_vjp_into`]
+//! (the compositing VJP, then the projection VJP, which evogs-splat exposes as two calls),
+//! with a clock read between them. Results are those of the two library functions, bit for
+//! bit.
 //!
 //! [`render_tiled_into`]: evogs_splat::render_tiled_into
 //! [`render_tiled_vjp_into`]: evogs_splat::render_tiled_vjp_into
@@ -9,7 +10,7 @@
 use evogs_math::Real;
 use evogs_splat::{
     PinholeCamera, PixelGrad, Render, RenderGrad, RenderOptions, Splats, TiledRasterizer,
-    preprocess_into, preprocess_vjp,
+    preprocess_into, render_tiled_vjp_compositing, render_tiled_vjp_projection,
 };
 use std::time::Instant;
 
@@ -55,30 +56,9 @@ pub fn render_backward<T: Real>(
     times: &mut RenderTimes,
 ) {
     let start = Instant::now();
-    grad.raster.reset(splats.len());
-    grad.background = rast.backward(
-        &fwd.pre,
-        opts.background,
-        &fwd.raster,
-        d,
-        opts.par,
-        &mut grad.raster,
-        &mut grad.densify,
-    );
+    render_tiled_vjp_compositing(splats.len(), opts, rast, fwd, d, grad);
     let rasterized = Instant::now();
-    if grad.splats.len() == splats.len() && grad.splats.sh_degree == splats.sh_degree {
-        grad.splats.fill_zero();
-    } else {
-        grad.splats = splats.zeros_like();
-    }
-    grad.camera = preprocess_vjp(
-        splats,
-        camera,
-        opts,
-        &fwd.pre,
-        &grad.raster,
-        &mut grad.splats,
-    );
+    render_tiled_vjp_projection(splats, camera, opts, fwd, grad);
     times.raster_backward += (rasterized - start).as_secs_f64();
     times.projection += rasterized.elapsed().as_secs_f64();
 }
