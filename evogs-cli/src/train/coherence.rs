@@ -21,7 +21,7 @@
 //! The weights depend only on the detached positions, so the gradient flows to the
 //! velocities (and from there to the field's parameters) only.
 //!
-//! [`local_clusters`] draws the sample in local clusters (`[loss] coherence_local`).
+//! `local_clusters` draws the sample in local clusters (`[loss] coherence_local`).
 
 use evogs_math::Vec3;
 use evogs_math::rng::SplitMix64;
