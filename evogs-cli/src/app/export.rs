@@ -124,8 +124,7 @@ pub fn export_sequence(
     let mut stepper = None;
     rep.start("export", n as u64);
     for i in 0..n {
-        if interrupt::requested() {
-            interrupt::clear();
+        if interrupt::take() {
             return Err(CommandError(format!(
                 "interrupted: {i} of {n} files written to {}; no {SEQUENCE_FILE}",
                 out.display()

@@ -73,10 +73,9 @@ impl FrameWriter {
     /// # Errors
     /// The interrupt, naming what was kept.
     pub fn check_interrupt(&self, total: usize) -> Result<(), CommandError> {
-        if !interrupt::requested() {
+        if !interrupt::take() {
             return Ok(());
         }
-        interrupt::clear();
         Err(CommandError(format!(
             "interrupted: {} of {total} frames written to {}{}",
             self.written,

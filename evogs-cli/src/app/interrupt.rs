@@ -41,6 +41,13 @@ pub fn requested() -> bool {
     REQUESTED.load(Ordering::SeqCst)
 }
 
+/// Whether a stop was asked for, withdrawing the request (for a command that stops for it
+/// now).
+#[must_use]
+pub fn take() -> bool {
+    REQUESTED.swap(false, Ordering::SeqCst)
+}
+
 /// Withdraws a request (after a command has stopped for it, or in tests).
 pub fn clear() {
     REQUESTED.store(false, Ordering::SeqCst);

@@ -25,6 +25,15 @@ pub struct RenderTimes {
     pub raster_backward: f64,
 }
 
+impl RenderTimes {
+    /// Adds another render's times.
+    pub fn add(&mut self, o: &Self) {
+        self.projection += o.projection;
+        self.raster_forward += o.raster_forward;
+        self.raster_backward += o.raster_backward;
+    }
+}
+
 /// [`render_tiled_into`](evogs_splat::render_tiled_into), adding the time of its phases
 /// into `times`.
 pub fn render_forward<T: Real>(

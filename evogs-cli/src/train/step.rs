@@ -86,12 +86,8 @@ pub struct StepTimings {
     pub dynamics: f64,
     /// Render, loss and render VJP (the four entries below and their glue).
     pub render: f64,
-    /// Of `render`: projection and SH colours, forward and VJP.
-    pub projection: f64,
-    /// Of `render`: rasterization (binning, sorting, compositing).
-    pub raster_forward: f64,
-    /// Of `render`: the rasterization VJP.
-    pub raster_backward: f64,
+    /// Of `render`: projection, rasterization and their VJPs.
+    pub phases: RenderTimes,
     /// Of `render`: the photometric loss (L1, SSIM) and its image gradient.
     pub loss: f64,
     /// Back through the dynamics (discrete adjoint or displacement VJP).
@@ -105,9 +101,7 @@ impl StepTimings {
     pub fn add(&mut self, o: &Self) {
         self.dynamics += o.dynamics;
         self.render += o.render;
-        self.projection += o.projection;
-        self.raster_forward += o.raster_forward;
-        self.raster_backward += o.raster_backward;
+        self.phases.add(&o.phases);
         self.loss += o.loss;
         self.adjoint += o.adjoint;
         self.extra += o.extra;
@@ -309,9 +303,7 @@ pub fn view_loss_and_grad<T: Gemm>(
         &mut phases,
     );
     timings.render = clock.elapsed().as_secs_f64() - timings.dynamics;
-    timings.projection = phases.projection;
-    timings.raster_forward = phases.raster_forward;
-    timings.raster_backward = phases.raster_backward;
+    timings.phases = phases;
     model.backward_at(&tape, &mut ws.stepper, &g.splats, grad);
     timings.adjoint = clock.elapsed().as_secs_f64() - timings.dynamics - timings.render;
     let mse = evogs_splat::metrics::mse(&fwd.raster.rgb, &view.image).to_f64();

@@ -191,9 +191,9 @@ impl BenchRun {
         let mut phases = Phases {
             field_forward: field.forward,
             field_vjp: field.vjp,
-            projection: t.projection,
-            raster_forward: t.raster_forward,
-            raster_backward: t.raster_backward,
+            projection: t.phases.projection,
+            raster_forward: t.phases.raster_forward,
+            raster_backward: t.phases.raster_backward,
             loss: t.loss,
             regularizers: t.extra,
             optimizer,
