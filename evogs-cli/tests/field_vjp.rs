@@ -2,11 +2,12 @@
 //! scales) against central differences in f64, the dot-product test, and bitwise agreement of
 //! sequential and parallel evaluation.
 
-use evogs_cli::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
+use evogs_cli::field::{FieldProfile, HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use evogs_math::Par;
 use evogs_math::diff::{GradCheck, central_gradient, central_jvp, vjp_dot_test};
 use evogs_math::rng::SplitMix64;
 use evogs_ode::VectorField;
+use std::sync::Arc;
 
 /// Training times normalised over [0, 1].
 const UNIT_TIME: TimeMapping = TimeMapping::Normalized {
@@ -287,10 +288,13 @@ fn stored_evaluations_give_bitwise_identical_outputs_and_vjps() {
     let y = states(n, 29);
     let mut rng = SplitMix64::new(31);
     let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();
-    let run = |capacity: usize, interleave: bool| {
+    let run_with = |capacity: usize, budget: usize, interleave: bool| {
         let mut f = small_field(UNIT_TIME);
         f.set_count(n);
         f.set_eval_capacity(capacity);
+        f.set_eval_budget(budget);
+        let profile = Arc::new(FieldProfile::default());
+        f.set_profile(Some(Arc::clone(&profile)));
         let mut outs = Vec::new();
         let mut grads = Vec::new();
         // Evaluate at three times, then take the VJPs in reverse (as the discrete adjoint does),
@@ -313,6 +317,10 @@ fn stored_evaluations_give_bitwise_identical_outputs_and_vjps() {
             f.vjp(t, &y, &w, &mut d_y, &mut d_p);
             grads.push((d_y, d_p));
         }
+        (outs, grads, profile.take().forward_rows)
+    };
+    let run = |capacity: usize, interleave: bool| {
+        let (outs, grads, _) = run_with(capacity, usize::MAX, interleave);
         (outs, grads)
     };
     let plain = run(1, false);
@@ -325,4 +333,19 @@ fn stored_evaluations_give_bitwise_identical_outputs_and_vjps() {
         "parameter changes invalidate stored evaluations"
     );
     assert!(run(2, false) == plain, "evictions are handled");
+    // The memory budget: room for two evaluations of n Gaussians keeps two whatever the
+    // capacity, and a budget below one evaluation keeps one; results never change.
+    let (outs3, grads3, fresh3) = run_with(3, usize::MAX, false);
+    let (outs_b, grads_b, fresh_b) =
+        run_with(3, 2 * small_field(UNIT_TIME).evaluation_bytes(n), false);
+    let (outs_0, grads_0, fresh_0) = run_with(3, 0, false);
+    assert!(outs_b == outs3 && grads_b == grads3 && outs_0 == outs3 && grads_0 == grads3);
+    let (_, _, fresh2) = run_with(2, usize::MAX, false);
+    let (_, _, fresh1) = run_with(1, usize::MAX, false);
+    assert_eq!(fresh_b, fresh2, "a budget of two evaluations keeps two");
+    assert_eq!(fresh_0, fresh1, "a budget below one evaluation keeps one");
+    assert!(
+        fresh3 < fresh2 && fresh2 < fresh1,
+        "{fresh3} {fresh2} {fresh1}"
+    );
 }

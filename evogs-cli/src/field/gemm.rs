@@ -76,7 +76,8 @@ fn gemm_impl<T: Real + nalgebra::RealField>(
 
 /// `C ← α·A·B + β·C` for thin shapes, with the loop order chosen for contiguous inner loops
 /// (which the compiler vectorises): row-axpy when the rows of B and C are contiguous, dot
-/// products when the rows of A and the columns of B are, a plain triple loop otherwise.
+/// products (lane-parallel, [`super::lanes::dot`]) when the rows of A and the columns of B
+/// are, a plain triple loop otherwise.
 fn thin_gemm<T: Real>(
     alpha: T,
     a: (&[T], usize, usize),
@@ -114,7 +115,7 @@ fn thin_gemm<T: Real>(
             let s = if acs == 1 && brs == 1 {
                 let ar = &ad[i * ars..i * ars + k];
                 let bc = &bd[j * bcs..j * bcs + k];
-                ar.iter().zip(bc).fold(zero, |acc, (&x, &y)| acc + x * y)
+                super::lanes::dot(ar, bc)
             } else {
                 let mut s = zero;
                 for l in 0..k {

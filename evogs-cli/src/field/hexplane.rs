@@ -20,6 +20,7 @@
 //! flat vector (so one Adam optimiser and one checkpoint cover everything); this type only
 //! knows the layout.
 
+use super::lanes;
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
 
@@ -328,12 +329,13 @@ impl HexPlane {
             &params[r..r + n],
             &params[r + lk.col_step..r + lk.col_step + n],
         );
-        let (mut gu, mut gv) = (T::ZERO, T::ZERO);
         let (fx, fy) = (lk.fx, lk.fy);
-        for c in 0..n {
-            gu += g[c] * ((T::ONE - fy) * (p10[c] - p00[c]) + fy * (p11[c] - p01[c]));
-            gv += g[c] * ((T::ONE - fx) * (p01[c] - p00[c]) + fx * (p11[c] - p10[c]));
-        }
+        let gu = lanes::sum_by(n, |c| {
+            g[c] * ((T::ONE - fy) * (p10[c] - p00[c]) + fy * (p11[c] - p01[c]))
+        });
+        let gv = lanes::sum_by(n, |c| {
+            g[c] * ((T::ONE - fx) * (p01[c] - p00[c]) + fx * (p11[c] - p10[c]))
+        });
         (gu * lk.du, gv * lk.dv)
     }
 

@@ -28,25 +28,17 @@ pub struct Mlp {
     pub width: usize,
 }
 
-/// Per-row activations of one batch, kept for the backward pass (caller-owned, reused).
+/// What the backward pass needs from the forward pass of one batch (kept per stored
+/// evaluation, so it holds only that: the rectified outputs, from which the masks follow, and
+/// the unscaled outputs).
 #[derive(Clone, Debug, Default)]
 pub struct MlpActivations<T> {
-    /// Trunk pre-activation T (rows × W).
+    /// relu(T), the trunk's activations (rows × W).
     pub trunk: Vec<T>,
-    /// relu(T) (rows × W).
-    pub trunk_relu: Vec<T>,
-    /// Head pre-activations H (rows × 3W).
+    /// relu(H), the heads' hidden activations (rows × 3W).
     pub heads: Vec<T>,
-    /// relu(H) (rows × 3W).
-    pub heads_relu: Vec<T>,
     /// Unscaled outputs Y (rows × 9).
     pub raw: Vec<T>,
-    /// Scratch for backward (rows × 3W).
-    pub d_heads: Vec<T>,
-    /// Scratch for backward (rows × W).
-    pub d_trunk: Vec<T>,
-    /// Scratch for backward (rows × 9).
-    pub d_raw: Vec<T>,
 }
 
 impl<T: Real> MlpActivations<T> {
@@ -56,10 +48,29 @@ impl<T: Real> MlpActivations<T> {
         let w = mlp.width;
         Self {
             trunk: vec![T::ZERO; rows * w],
-            trunk_relu: vec![T::ZERO; rows * w],
             heads: vec![T::ZERO; rows * 3 * w],
-            heads_relu: vec![T::ZERO; rows * 3 * w],
             raw: vec![T::ZERO; rows * N_OUT],
+        }
+    }
+}
+
+/// The backward pass's scratch for one batch (shared by every stored evaluation).
+#[derive(Clone, Debug, Default)]
+pub struct MlpWork<T> {
+    /// Gradient of the heads' pre-activations (rows × 3W).
+    pub d_heads: Vec<T>,
+    /// Gradient of the trunk's pre-activations (rows × W).
+    pub d_trunk: Vec<T>,
+    /// Gradient of the unscaled outputs (rows × 9).
+    pub d_raw: Vec<T>,
+}
+
+impl<T: Real> MlpWork<T> {
+    /// Buffers for up to `rows` rows of an MLP.
+    #[must_use]
+    pub fn new(mlp: &Mlp, rows: usize) -> Self {
+        let w = mlp.width;
+        Self {
             d_heads: vec![T::ZERO; rows * 3 * w],
             d_trunk: vec![T::ZERO; rows * w],
             d_raw: vec![T::ZERO; rows * N_OUT],
@@ -195,21 +206,18 @@ impl Mlp {
                 (&mut act.trunk[..rows * w], rows, w, w, 1),
             );
         });
-        relu(&act.trunk[..rows * w], &mut act.trunk_relu[..rows * w]);
+        relu(&mut act.trunk[..rows * w]);
         fill_rows(&mut act.heads[..rows * 3 * w], &p[self.b1()..self.w2()]);
         gemm.time(|| {
             T::gemm(
                 T::ONE,
-                row_major(&act.trunk_relu[..rows * w], rows, w),
+                row_major(&act.trunk[..rows * w], rows, w),
                 transposed(&p[self.w1()..self.b1()], 3 * w, w),
                 T::ONE,
                 (&mut act.heads[..rows * 3 * w], rows, 3 * w, 3 * w, 1),
             );
         });
-        relu(
-            &act.heads[..rows * 3 * w],
-            &mut act.heads_relu[..rows * 3 * w],
-        );
+        relu(&mut act.heads[..rows * 3 * w]);
         fill_rows(
             &mut act.raw[..rows * N_OUT],
             &p[self.b2()..self.scales_offset()],
@@ -219,7 +227,7 @@ impl Mlp {
             gemm.time(|| {
                 T::gemm(
                     T::ONE,
-                    (&act.heads_relu[h * w..], rows, w, 3 * w, 1),
+                    (&act.heads[h * w..], rows, w, 3 * w, 1),
                     transposed(w2, 3, w),
                     T::ONE,
                     (&mut act.raw[3 * h..], rows, 3, N_OUT, 1),
@@ -246,7 +254,8 @@ impl Mlp {
         params: &[T],
         features: &[T],
         rows: usize,
-        act: &mut MlpActivations<T>,
+        act: &MlpActivations<T>,
+        work: &mut MlpWork<T>,
         d_out: &[T],
         d_features: &mut [T],
         d_params: &mut [T],
@@ -256,7 +265,7 @@ impl Mlp {
         let p = params;
         let mut gemm = GemmTimer::new(profile);
         let so = self.scales_offset();
-        for ((dr, d), r) in act.d_raw[..rows * N_OUT]
+        for ((dr, d), r) in work.d_raw[..rows * N_OUT]
             .chunks_exact_mut(N_OUT)
             .zip(d_out.chunks_exact(N_OUT))
             .zip(act.raw.chunks_exact(N_OUT))
@@ -267,7 +276,7 @@ impl Mlp {
             }
         }
         col_sums(
-            &act.d_raw[..rows * N_OUT],
+            &work.d_raw[..rows * N_OUT],
             N_OUT,
             &mut d_params[self.b2()..so],
         );
@@ -277,8 +286,8 @@ impl Mlp {
             gemm.time(|| {
                 T::gemm(
                     T::ONE,
-                    (&act.d_raw[3 * h..], 3, rows, 1, N_OUT),
-                    (&act.heads_relu[h * w..], rows, w, 3 * w, 1),
+                    (&work.d_raw[3 * h..], 3, rows, 1, N_OUT),
+                    (&act.heads[h * w..], rows, w, 3 * w, 1),
                     T::ONE,
                     (&mut d_params[w2..w2 + 3 * w], 3, w, w, 1),
                 );
@@ -287,24 +296,27 @@ impl Mlp {
             gemm.time(|| {
                 T::gemm(
                     T::ONE,
-                    (&act.d_raw[3 * h..], rows, 3, N_OUT, 1),
+                    (&work.d_raw[3 * h..], rows, 3, N_OUT, 1),
                     row_major(&p[w2..w2 + 3 * w], 3, w),
                     T::ZERO,
-                    (&mut act.d_heads[h * w..], rows, w, 3 * w, 1),
+                    (&mut work.d_heads[h * w..], rows, w, 3 * w, 1),
                 );
             });
         }
-        relu_mask(&act.heads[..rows * 3 * w], &mut act.d_heads[..rows * 3 * w]);
+        relu_mask(
+            &act.heads[..rows * 3 * w],
+            &mut work.d_heads[..rows * 3 * w],
+        );
         col_sums(
-            &act.d_heads[..rows * 3 * w],
+            &work.d_heads[..rows * 3 * w],
             3 * w,
             &mut d_params[self.b1()..self.w2()],
         );
         gemm.time(|| {
             T::gemm(
                 T::ONE,
-                transposed(&act.d_heads[..rows * 3 * w], rows, 3 * w),
-                row_major(&act.trunk_relu[..rows * w], rows, w),
+                transposed(&work.d_heads[..rows * 3 * w], rows, 3 * w),
+                row_major(&act.trunk[..rows * w], rows, w),
                 T::ONE,
                 (&mut d_params[self.w1()..self.b1()], 3 * w, w, w, 1),
             );
@@ -312,22 +324,22 @@ impl Mlp {
         gemm.time(|| {
             T::gemm(
                 T::ONE,
-                row_major(&act.d_heads[..rows * 3 * w], rows, 3 * w),
+                row_major(&work.d_heads[..rows * 3 * w], rows, 3 * w),
                 row_major(&p[self.w1()..self.b1()], 3 * w, w),
                 T::ZERO,
-                (&mut act.d_trunk[..rows * w], rows, w, w, 1),
+                (&mut work.d_trunk[..rows * w], rows, w, w, 1),
             );
         });
-        relu_mask(&act.trunk[..rows * w], &mut act.d_trunk[..rows * w]);
+        relu_mask(&act.trunk[..rows * w], &mut work.d_trunk[..rows * w]);
         col_sums(
-            &act.d_trunk[..rows * w],
+            &work.d_trunk[..rows * w],
             w,
             &mut d_params[self.b0()..self.w1()],
         );
         gemm.time(|| {
             T::gemm(
                 T::ONE,
-                transposed(&act.d_trunk[..rows * w], rows, w),
+                transposed(&work.d_trunk[..rows * w], rows, w),
                 row_major(&features[..rows * f], rows, f),
                 T::ONE,
                 (&mut d_params[..self.b0()], w, f, f, 1),
@@ -336,7 +348,7 @@ impl Mlp {
         gemm.time(|| {
             T::gemm(
                 T::ONE,
-                row_major(&act.d_trunk[..rows * w], rows, w),
+                row_major(&work.d_trunk[..rows * w], rows, w),
                 row_major(&p[..self.b0()], w, f),
                 T::ZERO,
                 (&mut d_features[..rows * f], rows, f, f, 1),
@@ -351,14 +363,17 @@ fn fill_rows<T: Real>(dst: &mut [T], row: &[T]) {
     }
 }
 
-fn relu<T: Real>(x: &[T], out: &mut [T]) {
-    for (o, &v) in out.iter_mut().zip(x) {
-        *o = if v > T::ZERO { v } else { T::ZERO };
+/// `x ← max(x, 0)` in place (NaN becomes 0).
+fn relu<T: Real>(x: &mut [T]) {
+    for v in x {
+        *v = if *v > T::ZERO { *v } else { T::ZERO };
     }
 }
 
-fn relu_mask<T: Real>(pre: &[T], grad: &mut [T]) {
-    for (g, &v) in grad.iter_mut().zip(pre) {
+/// Zeroes the gradient where the rectifier was inactive, read from its output (`relu(x) > 0`
+/// exactly where `x > 0`).
+fn relu_mask<T: Real>(activated: &[T], grad: &mut [T]) {
+    for (g, &v) in grad.iter_mut().zip(activated) {
         if v <= T::ZERO {
             *g = T::ZERO;
         }

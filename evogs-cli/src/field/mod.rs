@@ -3,6 +3,7 @@
 mod chunk;
 pub mod gemm;
 pub mod hexplane;
+mod lanes;
 pub mod mlp;
 pub mod neural;
 pub mod profile;

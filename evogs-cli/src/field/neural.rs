@@ -14,7 +14,7 @@
 //! ranges) in Gaussian order. Results are therefore bitwise identical for any thread count.
 //! Buffers are kept between calls and only grow.
 
-use super::chunk::{CHUNK, ChunkScratch, decode_chunk_vjp, encode_chunk};
+use super::chunk::{CHUNK, ChunkRecord, ChunkWork, decode_chunk_vjp, encode_chunk};
 use super::gemm::Gemm;
 use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
@@ -27,6 +27,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 mod eval_cache;
+
+pub use eval_cache::EVAL_BUDGET_BYTES;
 
 /// State entries per Gaussian: position (3), quaternion (4), log-scale (3).
 pub const STATE_STRIDE: usize = 10;
@@ -74,7 +76,7 @@ type VjpItem<'a, T> = (
             &'a mut [T],
             (&'a mut [Lookup<T>], (&'a mut [T], &'a mut [T])),
         ),
-        &'a mut ChunkScratch<T>,
+        (&'a mut ChunkRecord<T>, &'a mut ChunkWork<T>),
     ),
 );
 
@@ -92,8 +94,12 @@ pub struct NeuralField<T> {
     d_pos: Vec<T>,
     /// Stored evaluations (activations chunk by chunk), most recent reused first.
     evals: Vec<Evaluation<T>>,
-    /// How many evaluations are kept (at least 1).
+    /// How many evaluations are kept (at least 1), within `eval_budget`.
     capacity: usize,
+    /// Bytes the stored evaluations may take together ([`EVAL_BUDGET_BYTES`] by default).
+    eval_budget: usize,
+    /// Scratch per chunk, shared by every evaluation and VJP.
+    work: Vec<ChunkWork<T>>,
     /// Incremented on every parameter change: stored evaluations of older parameters are
     /// never reused.
     generation: u64,
@@ -141,6 +147,8 @@ impl<T: Gemm> NeuralField<T> {
             d_pos: Vec::new(),
             evals: Vec::new(),
             capacity: 1,
+            eval_budget: EVAL_BUDGET_BYTES,
+            work: Vec::new(),
             generation: 0,
             twist: cfg.twist,
             clock: 0,
@@ -251,13 +259,13 @@ impl<T: Gemm> NeuralField<T> {
             // outputs times the output scales.
             self.touch(slot);
             let scales = &self.params[self.hex.n_params() + self.mlp.scales_offset()..];
-            for (out_c, scratch) in out[..n * N_OUT]
+            for (out_c, rec) in out[..n * N_OUT]
                 .chunks_mut(CHUNK * N_OUT)
                 .zip(&self.evals[slot].chunks)
             {
                 for (o, r) in out_c
                     .chunks_exact_mut(N_OUT)
-                    .zip(scratch.act.raw.chunks_exact(N_OUT))
+                    .zip(rec.act.raw.chunks_exact(N_OUT))
                 {
                     for k in 0..N_OUT {
                         o[k] = r[k] * scales[k / 3];
@@ -268,18 +276,33 @@ impl<T: Gemm> NeuralField<T> {
         }
         let slot = self.claim_eval(t, positions, stride, n);
         self.touch(slot);
+        self.ensure_work(n_chunks);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
         let profile = self.profile.as_deref();
-        let scratches = &mut self.evals[slot].chunks[..n_chunks];
-        let run = |(ci, (out_c, scratch)): (usize, (&mut [T], &mut ChunkScratch<T>))| {
+        let records = &mut self.evals[slot].chunks[..n_chunks];
+        let works = &mut self.work[..n_chunks];
+        type Item<'a, T> = (
+            usize,
+            (&'a mut [T], (&'a mut ChunkRecord<T>, &'a mut ChunkWork<T>)),
+        );
+        let run = |(ci, (out_c, (rec, work))): Item<'_, T>| {
             let rows = out_c.len() / N_OUT;
             let pos = &positions[ci * CHUNK * stride..];
-            encode_chunk(hex, params, t, pos, stride, rows, scratch);
+            encode_chunk(
+                hex,
+                params,
+                t,
+                pos,
+                stride,
+                rows,
+                &mut work.samples,
+                &mut rec.features,
+            );
             mlp.forward(
                 &params[hex.n_params()..],
-                &scratch.features,
+                &rec.features,
                 rows,
-                &mut scratch.act,
+                &mut rec.act,
                 out_c,
                 profile,
             );
@@ -287,7 +310,7 @@ impl<T: Gemm> NeuralField<T> {
         match self.par {
             Par::Seq => out[..n * N_OUT]
                 .chunks_mut(CHUNK * N_OUT)
-                .zip(scratches.iter_mut())
+                .zip(records.iter_mut().zip(works.iter_mut()))
                 .enumerate()
                 .for_each(run),
             #[cfg(feature = "rayon")]
@@ -295,7 +318,7 @@ impl<T: Gemm> NeuralField<T> {
                 use rayon::prelude::*;
                 out[..n * N_OUT]
                     .par_chunks_mut(CHUNK * N_OUT)
-                    .zip(scratches.par_iter_mut())
+                    .zip(records.par_iter_mut().zip(works.par_iter_mut()))
                     .enumerate()
                     .for_each(run);
             }
@@ -426,24 +449,35 @@ impl<T: Gemm> NeuralField<T> {
             None => (self.claim_eval(t, positions, stride, n), false),
         };
         self.touch(slot);
+        self.ensure_work(n_chunks);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
         let profile = self.profile.as_deref();
         let twist = self
             .twist_centre()
             .filter(|_| twist)
             .map(|c| (c, params[hex.n_params() + mlp.scales_offset() + 1]));
-        let scratches = &mut self.evals[slot].chunks[..n_chunks];
-        let run = |(ci, ((partial, (lks, (dss, dp))), scratch)): VjpItem<'_, T>| {
+        let records = &mut self.evals[slot].chunks[..n_chunks];
+        let works = &mut self.work[..n_chunks];
+        let run = |(ci, ((partial, (lks, (dss, dp))), (rec, work))): VjpItem<'_, T>| {
             let rows = lks.len() / n_lk;
             let pos = &positions[ci * CHUNK * stride..];
             if !stored {
-                encode_chunk(hex, params, t, pos, stride, rows, scratch);
+                encode_chunk(
+                    hex,
+                    params,
+                    t,
+                    pos,
+                    stride,
+                    rows,
+                    &mut work.samples,
+                    &mut rec.features,
+                );
                 let mut out = [T::ZERO; CHUNK * N_OUT];
                 mlp.forward(
                     &params[hex.n_params()..],
-                    &scratch.features,
+                    &rec.features,
                     rows,
-                    &mut scratch.act,
+                    &mut rec.act,
                     &mut out[..rows * N_OUT],
                     profile,
                 );
@@ -461,27 +495,34 @@ impl<T: Gemm> NeuralField<T> {
                 }
                 d_o = &d_heads[..rows * N_OUT];
             }
-            let ChunkScratch {
-                features,
-                d_features,
-                act,
-                ..
-            } = scratch;
             mlp.backward(
                 &params[hex.n_params()..],
-                features,
+                &rec.features,
                 rows,
-                act,
+                &rec.act,
+                &mut work.mlp,
                 d_o,
-                d_features,
+                &mut work.d_features,
                 partial,
                 profile,
             );
-            decode_chunk_vjp(hex, params, t, pos, stride, rows, scratch, lks, dss, dp);
+            decode_chunk_vjp(
+                hex,
+                params,
+                t,
+                pos,
+                stride,
+                rows,
+                &work.d_features,
+                &mut work.samples,
+                lks,
+                dss,
+                dp,
+            );
             if let Some((_, omega_scale)) = twist {
                 let w_v = &d_out[ci * CHUNK * N_OUT..];
                 for (r, d) in dp.chunks_exact_mut(3).take(rows).enumerate() {
-                    let omega = Vec3::from_slice(&scratch.act.raw[r * N_OUT + 3..]) * omega_scale;
+                    let omega = Vec3::from_slice(&rec.act.raw[r * N_OUT + 3..]) * omega_scale;
                     Vec3::from_slice(&w_v[r * N_OUT..]).cross(omega).add_to(d);
                 }
             }
@@ -497,7 +538,7 @@ impl<T: Gemm> NeuralField<T> {
                             .zip(self.d_pos.chunks_mut(CHUNK * 3)),
                     ),
                 )
-                .zip(scratches.iter_mut())
+                .zip(records.iter_mut().zip(works.iter_mut()))
                 .enumerate()
                 .for_each(run),
             #[cfg(feature = "rayon")]
@@ -512,7 +553,7 @@ impl<T: Gemm> NeuralField<T> {
                                 .zip(self.d_pos.par_chunks_mut(CHUNK * 3)),
                         ),
                     )
-                    .zip(scratches.par_iter_mut())
+                    .zip(records.par_iter_mut().zip(works.par_iter_mut()))
                     .enumerate()
                     .for_each(run);
             }

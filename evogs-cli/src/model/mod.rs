@@ -14,6 +14,7 @@
 pub mod anchors;
 pub mod dynamics;
 pub mod init;
+pub mod order;
 pub mod retain;
 
 pub use anchors::{AnchorState, Waypoints, anchor_for_time};
@@ -102,8 +103,9 @@ pub struct ModelGrad<T> {
 }
 
 /// How many field evaluations to keep for the adjoint: every stage of the longest integration
-/// a frame or an anchor segment needs, capped at 4 (each holds the field's activations for
-/// every Gaussian; evaluations beyond the cap are recomputed by the adjoint).
+/// a frame or an anchor segment needs (each holds the field's activations for every
+/// Gaussian; the field keeps fewer when they would exceed its memory budget, and the adjoint
+/// recomputes the others).
 fn stored_evaluations(method: Method, max_step: f64, anchor_times: &[f64]) -> usize {
     let longest = anchor_times
         .windows(2)
@@ -116,7 +118,7 @@ fn stored_evaluations(method: Method, max_step: f64, anchor_times: &[f64]) -> us
         reason = "small positive step counts"
     )]
     let steps = (longest / max_step.max(1e-9)).ceil().max(1.0) as usize;
-    (method.stages() * steps).min(4)
+    method.stages() * steps
 }
 
 impl<T: Gemm> Model<T> {
@@ -177,6 +179,35 @@ impl<T: Gemm> Model<T> {
             anchors: self.anchors.iter().map(AnchorState::zeros_like).collect(),
             field: vec![T::ZERO; self.field.params().len()],
         }
+    }
+
+    /// Reorders the Gaussians (every canonical and anchor array): Gaussian `i` becomes the
+    /// old Gaussian `order[i]`.
+    ///
+    /// # Panics
+    /// If `order` is not a permutation of the Gaussians' indices.
+    pub fn permute_gaussians(&mut self, order: &[usize]) {
+        use retain::permute_items;
+        let k = self.canonical.coeffs_per_gaussian();
+        let c = &mut self.canonical;
+        permute_items(&mut c.means, order, 1);
+        permute_items(&mut c.log_scales, order, 1);
+        permute_items(&mut c.quats, order, 1);
+        permute_items(&mut c.opacity_logits, order, 1);
+        permute_items(&mut c.sh, order, k);
+        for a in &mut self.anchors {
+            permute_items(&mut a.means, order, 1);
+            permute_items(&mut a.log_scales, order, 1);
+            permute_items(&mut a.quats, order, 1);
+        }
+    }
+
+    /// The Morton order of the canonical positions in the field's box
+    /// ([`order::spatial_order`]).
+    #[must_use]
+    pub fn spatial_order(&self) -> Vec<usize> {
+        let (lo, hi) = self.field.hexplane().aabb();
+        order::spatial_order(&self.canonical.means, lo, hi)
     }
 
     /// The state of anchor `k` (0 = canonical): positions, log-scales, raw quaternions.

@@ -6,7 +6,7 @@
 //! Each parameter group keeps its own step count, so groups created later (anchors when the
 //! dynamics start) start their bias correction at 1.
 
-use crate::model::retain::retain_items;
+use crate::model::retain::{permute_items, retain_items};
 
 /// Adam moments of one parameter group.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -121,6 +121,12 @@ impl AdamState {
     pub fn retain(&mut self, keep: &[bool], stride: usize) {
         retain_items(&mut self.m, keep, stride);
         retain_items(&mut self.v, keep, stride);
+    }
+
+    /// Reorders the items (`stride` values each): item `i` becomes the old item `order[i]`.
+    pub fn permute(&mut self, order: &[usize], stride: usize) {
+        permute_items(&mut self.m, order, stride);
+        permute_items(&mut self.v, order, stride);
     }
 
     /// Appends zero moments for `n_items` new items of `stride` values.

@@ -74,7 +74,8 @@ fn child_offset(log_scale: Vec3<f32>, q: Quat<f32>, n: Vec3<f32>) -> Vec3<f32> {
     q.normalize().rotate(log_scale.map(f32::exp).mul_elem(n))
 }
 
-/// Clones, splits and prunes; resizes the optimiser and resets the statistics.
+/// Clones, splits and prunes; resizes the optimiser, puts the Gaussians back in spatial order
+/// ([`Model::spatial_order`]) and resets the statistics.
 pub fn densify_and_prune(
     model: &mut Model<f32>,
     optim: &mut Optimizer,
@@ -159,6 +160,10 @@ pub fn densify_and_prune(
     // additions.
     let kept_new = keep[n..].iter().filter(|&&b| b).count();
     optim.resize_gaussians(&keep[..n], kept_new, k);
+    // Clones and splits were appended: restore the spatial order.
+    let order = model.spatial_order();
+    model.permute_gaussians(&order);
+    optim.permute_gaussians(&order, k);
     *stats = DensifyStats::new(model.len());
     rep
 }

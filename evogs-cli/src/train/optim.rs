@@ -227,6 +227,22 @@ impl Optimizer {
     }
 }
 
+impl Optimizer {
+    /// Reorders the Adam entries of the Gaussians as [`Model::permute_gaussians`] reorders
+    /// the Gaussians.
+    pub fn permute_gaussians(&mut self, order: &[usize], sh_coeffs: usize) {
+        let groups = std::iter::once(&mut self.canonical).chain(self.anchors.iter_mut());
+        for st in groups {
+            st.means.permute(order, 3);
+            st.log_scales.permute(order, 3);
+            st.quats.permute(order, 4);
+        }
+        self.opacity.permute(order, 1);
+        self.sh_dc.permute(order, 3);
+        self.sh_rest.permute(order, 3 * (sh_coeffs - 1));
+    }
+}
+
 fn step_state(
     adam: &Adam,
     st: &mut StateGroups,

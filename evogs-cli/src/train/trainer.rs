@@ -195,6 +195,10 @@ impl Trainer {
             cfg.dynamics.step_fraction * (t1 - t0),
             anchor_times(t0, t1, cfg.dynamics.anchors),
         );
+        // The field reads consecutive Gaussians together: keep them in spatial order.
+        let mut model = model;
+        let order = model.spatial_order();
+        model.permute_gaussians(&order);
         let optim = Optimizer::new(&model);
         let n = model.len();
         let extent = views.camera_extent();

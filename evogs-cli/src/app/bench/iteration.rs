@@ -100,6 +100,9 @@ impl BenchRun {
             vec![0.0],
         );
         model.dynamics_active = true;
+        // As training does: the Gaussians in spatial order.
+        let order = model.spatial_order();
+        model.permute_gaussians(&order);
         let optim = Optimizer::new(&model);
         let grad = model.zero_grad();
         let n = model.len();
