@@ -20,7 +20,7 @@
 //! flat vector (so one Adam optimiser and one checkpoint cover everything); this type only
 //! knows the layout.
 
-use super::lanes;
+use super::lanes::{self, LANES};
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
 
@@ -330,12 +330,30 @@ impl HexPlane {
             &params[r + lk.col_step..r + lk.col_step + n],
         );
         let (fx, fy) = (lk.fx, lk.fy);
-        let gu = lanes::sum_by(n, |c| {
-            g[c] * ((T::ONE - fy) * (p10[c] - p00[c]) + fy * (p11[c] - p01[c]))
-        });
-        let gv = lanes::sum_by(n, |c| {
-            g[c] * ((T::ONE - fx) * (p01[c] - p00[c]) + fx * (p11[c] - p10[c]))
-        });
+        let (gx, gy) = (T::ONE - fx, T::ONE - fy);
+        // Channel c goes to lane c mod LANES (fixed order, vectorised).
+        let mut acc_u = [T::ZERO; LANES];
+        let mut acc_v = [T::ZERO; LANES];
+        let mut add = |k: usize, g: T, a: T, b: T, c: T, d: T| {
+            acc_u[k] += g * (gy * (b - a) + fy * (d - c));
+            acc_v[k] += g * (gx * (c - a) + fx * (d - b));
+        };
+        let full = n - n % LANES;
+        for ((((g, a), b), c), d) in g[..full]
+            .chunks_exact(LANES)
+            .zip(p00[..full].chunks_exact(LANES))
+            .zip(p10[..full].chunks_exact(LANES))
+            .zip(p01[..full].chunks_exact(LANES))
+            .zip(p11[..full].chunks_exact(LANES))
+        {
+            for k in 0..LANES {
+                add(k, g[k], a[k], b[k], c[k], d[k]);
+            }
+        }
+        for c in full..n {
+            add(c - full, g[c], p00[c], p10[c], p01[c], p11[c]);
+        }
+        let (gu, gv) = (lanes::total(acc_u), lanes::total(acc_v));
         (gu * lk.du, gv * lk.dv)
     }
 

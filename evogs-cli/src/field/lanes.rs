@@ -20,31 +20,23 @@ pub(crate) fn total<T: Real>(acc: [T; LANES]) -> T {
     (a[0] + a[2]) + (a[1] + a[3])
 }
 
-/// `Σ_c f(c)` for `c` in `0..n`, with `f(c)` added to lane `c mod LANES`.
-#[inline]
-pub(crate) fn sum_by<T: Real>(n: usize, mut f: impl FnMut(usize) -> T) -> T {
-    let mut acc = [T::ZERO; LANES];
-    let full = n - n % LANES;
-    let mut c0 = 0;
-    while c0 < full {
-        for (k, a) in acc.iter_mut().enumerate() {
-            *a += f(c0 + k);
-        }
-        c0 += LANES;
-    }
-    for (k, a) in acc.iter_mut().enumerate().take(n - full) {
-        *a += f(full + k);
-    }
-    total(acc)
-}
-
-/// `Σ_c a_c·b_c` over the shorter of the two slices.
+/// `Σ_c a_c·b_c` over the shorter of the two slices, `a_c·b_c` added to lane `c mod LANES`.
 #[inline]
 #[must_use]
 pub(crate) fn dot<T: Real>(a: &[T], b: &[T]) -> T {
     let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    sum_by(n, |c| a[c] * b[c])
+    let (a, b) = (a[..n].chunks_exact(LANES), b[..n].chunks_exact(LANES));
+    let (a_tail, b_tail) = (a.remainder(), b.remainder());
+    let mut acc = [T::ZERO; LANES];
+    for (x, y) in a.zip(b) {
+        for k in 0..LANES {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    for (k, (&x, &y)) in a_tail.iter().zip(b_tail).enumerate() {
+        acc[k] += x * y;
+    }
+    total(acc)
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@
 //! weights (gain 1), zero biases: the initial velocity is small but not zero.
 
 use super::gemm::{Gemm, row_major, transposed};
+use super::lanes::LANES;
 use super::profile::{FieldProfile, GemmTimer};
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
@@ -284,12 +285,12 @@ impl Mlp {
             let w2 = self.w2() + 3 * h * w;
             // dW2_h += d_raw_hᵀ · relu(H_h)
             gemm.time(|| {
-                T::gemm(
-                    T::ONE,
-                    (&work.d_raw[3 * h..], 3, rows, 1, N_OUT),
-                    (&act.heads[h * w..], rows, w, 3 * w, 1),
-                    T::ONE,
-                    (&mut d_params[w2..w2 + 3 * w], 3, w, w, 1),
+                head_weight_grad(
+                    &work.d_raw[..rows * N_OUT],
+                    &act.heads[..rows * 3 * w],
+                    h,
+                    w,
+                    &mut d_params[w2..w2 + 3 * w],
                 );
             });
             // d relu(H_h) = d_raw_h · W2_h
@@ -376,6 +377,48 @@ fn relu_mask<T: Real>(activated: &[T], grad: &mut [T]) {
     for (g, &v) in grad.iter_mut().zip(activated) {
         if v <= T::ZERO {
             *g = T::ZERO;
+        }
+    }
+}
+
+/// `dW2_h += d_raw_hᵀ · relu(H_h)` for head `h`: the 3 × W weight gradient of its output
+/// layer, from the rows' output gradients (9 per row, the head's at `3h..3h + 3`) and hidden
+/// activations (3W per row, the head's at `hW..hW + W`). A thin product (3 outputs), so done
+/// here rather than by the GEMM: [`LANES`] channels at a time with the three running sums in
+/// registers over all rows (each row read once per channel block, in row order).
+fn head_weight_grad<T: Real>(d_raw: &[T], heads: &[T], h: usize, w: usize, out: &mut [T]) {
+    let mut c0 = 0;
+    while c0 + LANES <= w {
+        head_weight_grad_block::<T, LANES>(d_raw, heads, h, w, c0, out);
+        c0 += LANES;
+    }
+    for c in c0..w {
+        head_weight_grad_block::<T, 1>(d_raw, heads, h, w, c, out);
+    }
+}
+
+/// [`head_weight_grad`] for channels `c0..c0 + B`.
+#[inline]
+fn head_weight_grad_block<T: Real, const B: usize>(
+    d_raw: &[T],
+    heads: &[T],
+    h: usize,
+    w: usize,
+    c0: usize,
+    out: &mut [T],
+) {
+    let mut acc = [[T::ZERO; B]; 3];
+    for (d, x) in d_raw.chunks_exact(N_OUT).zip(heads.chunks_exact(3 * w)) {
+        let x = &x[h * w + c0..h * w + c0 + B];
+        for (a, &d_i) in acc.iter_mut().zip(&d[3 * h..3 * h + 3]) {
+            for k in 0..B {
+                a[k] += d_i * x[k];
+            }
+        }
+    }
+    for (i, a) in acc.iter().enumerate() {
+        for (o, &v) in out[i * w + c0..i * w + c0 + B].iter_mut().zip(a) {
+            *o += v;
         }
     }
 }
