@@ -152,6 +152,10 @@ impl TrainConfig {
                 lambda_coherence: 0.01,
                 coherence_samples: 1000,
                 coherence_local: false,
+                lambda_rigidity: 0.0,
+                lambda_rotation: 0.0,
+                lambda_isometry: 0.0,
+                rigidity_samples: 512,
                 lambda_anchor: 1.0,
                 anchor_every: 10,
             },
@@ -242,6 +246,10 @@ impl TrainConfig {
         base.schedule.warmup_time_window = 1.0;
         base.schedule.curriculum_iters = 0;
         base.schedule.curriculum_focus = 0.0;
+        // Runs from before the rigidity priors trained without them.
+        base.loss.lambda_rigidity = 0.0;
+        base.loss.lambda_rotation = 0.0;
+        base.loss.lambda_isometry = 0.0;
         let mut over: toml::Value = toml::from_str(text).map_err(|e| e.to_string())?;
         if let Some(table) = over.as_table_mut() {
             for name in REMOVED_SECTIONS {
@@ -391,9 +399,19 @@ impl TrainConfig {
             ("loss.time_smoothness", l.time_smoothness),
             ("loss.l1_time", l.l1_time),
             ("loss.lambda_coherence", l.lambda_coherence),
+            ("loss.lambda_rigidity", l.lambda_rigidity),
+            ("loss.lambda_rotation", l.lambda_rotation),
+            ("loss.lambda_isometry", l.lambda_isometry),
             ("loss.lambda_anchor", l.lambda_anchor),
         ] {
             nonneg(name, v)?;
+        }
+        if l.rigidity_samples < 2 {
+            return Err(format!(
+                "loss.rigidity_samples must be at least 2 (got {}): the rigidity priors compare \
+                 neighbouring Gaussians of the sample",
+                l.rigidity_samples
+            ));
         }
         let o = &self.optim;
         for (name, v) in [
@@ -532,6 +550,10 @@ mod tests {
             ("[optim]\nscaling_lr = -0.001", "optim.scaling_lr"),
             ("[optim]\ngrid_lr_final = -inf", "optim.grid_lr_final"),
             ("[loss]\nlambda_coherence = nan", "loss.lambda_coherence"),
+            ("[loss]\nlambda_rigidity = nan", "loss.lambda_rigidity"),
+            ("[loss]\nlambda_rotation = inf", "loss.lambda_rotation"),
+            ("[loss]\nlambda_isometry = -1.0", "loss.lambda_isometry"),
+            ("[loss]\nrigidity_samples = 1", "loss.rigidity_samples"),
             ("[loss]\nplane_tv = -1.0", "loss.plane_tv"),
             ("[init]\nrandom_extent = -1.0", "init.random_extent"),
             ("[init]\nrandom_points = 0", "init.random_points"),

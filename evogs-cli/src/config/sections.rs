@@ -204,6 +204,15 @@ pub struct LossConfig {
     /// neighbours within the sample are true neighbours and the term is a local rigidity prior
     /// (with the twist velocity, free for any rigid motion of an object).
     pub coherence_local: bool,
+    /// Weight of the local-rigidity prior on the Gaussians at the rendered time
+    /// (`docs/losses.md` §8; 0 switches it off).
+    pub lambda_rigidity: f64,
+    /// Weight of the rotation-similarity prior (0 switches it off).
+    pub lambda_rotation: f64,
+    /// Weight of the isometry prior (0 switches it off).
+    pub lambda_isometry: f64,
+    /// Gaussians sampled (in local clusters) per step for the three priors (at least 2).
+    pub rigidity_samples: usize,
     /// Anchor loss weight.
     pub lambda_anchor: f64,
     /// Iterations between anchor-loss evaluations (cycling through the segments).

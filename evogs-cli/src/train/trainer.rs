@@ -7,10 +7,12 @@
 //! are static (plain 3DGS); then the dynamics are switched on and the anchors are
 //! initialised by integrating the field from the canonical state.
 
-use super::coherence::{COHERENCE_K, local_clusters};
+use super::coherence::COHERENCE_K;
 use super::densify::{DensifyReport, DensifyStats, densify_and_prune, reset_opacity};
 use super::frames::TrainViews;
+use super::neighbours::local_clusters;
 use super::optim::{LearningRates, Optimizer, StateGroups};
+use super::rigidity::{RigidityGraph, RigidityWeights};
 use super::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats,
     batch_loss_and_grad, render_options,
@@ -472,6 +474,34 @@ impl Trainer {
         } else {
             Vec::new()
         };
+        let rigidity = RigidityWeights {
+            rigidity: l.lambda_rigidity,
+            rotation: l.lambda_rotation,
+            isometry: l.lambda_isometry,
+        };
+        let (rigidity_sample, rigidity_graph) = if rigidity.any()
+            && self.model.dynamics_active
+            && self.model.motion != Motion::Static
+            && n > 1
+        {
+            // Local clusters, so that the neighbours within the sample are neighbours in the
+            // cloud.
+            let means = &self.model.canonical.means;
+            let picks = local_clusters(
+                means,
+                l.rigidity_samples.min(n),
+                COHERENCE_K + 1,
+                &mut self.rng,
+            );
+            let positions: Vec<[f64; 3]> = picks
+                .iter()
+                .map(|&i| means[i].cast::<f64>().to_array())
+                .collect();
+            let graph = RigidityGraph::new(&positions, COHERENCE_K);
+            (picks, graph)
+        } else {
+            (Vec::new(), RigidityGraph::default())
+        };
         StepSettings {
             lambda_ssim: l.lambda_ssim,
             plane_reg: PlaneRegWeights {
@@ -483,6 +513,9 @@ impl Trainer {
             lambda_anchor: l.lambda_anchor,
             anchor_segment,
             coherence_points,
+            rigidity,
+            rigidity_sample,
+            rigidity_graph,
         }
     }
 
@@ -623,7 +656,7 @@ impl Trainer {
                 l1: losses.l1,
                 psnr: psnr_of_mse(losses.mse),
                 ssim: losses.ssim,
-                regularizers: losses.planes + losses.coherence + losses.anchor,
+                regularizers: losses.planes + losses.coherence + losses.anchor + losses.rigidity,
                 gaussians: self.model.len(),
                 lr_position: lr.position,
             });

@@ -13,6 +13,7 @@ use crate::field::{FieldProfile, FieldTimes, NeuralField, TimeMapping};
 use crate::model::{Model, ModelGrad, Motion, Waypoints};
 use crate::train::densify::DensifyStats;
 use crate::train::optim::{LearningRates, Optimizer};
+use crate::train::rigidity::{RigidityGraph, RigidityWeights};
 use crate::train::step::{
     StepSettings, StepWorkspace, ViewData, accumulate_screen_stats, batch_loss_and_grad,
     render_options,
@@ -117,6 +118,9 @@ impl BenchRun {
             lambda_anchor: 0.0,
             anchor_segment: None,
             coherence_points: Vec::new(),
+            rigidity: RigidityWeights::default(),
+            rigidity_sample: Vec::new(),
+            rigidity_graph: RigidityGraph::default(),
         };
         let opts = render_options(cfg.data.background, SH_DEGREE, Par::best());
         Self {

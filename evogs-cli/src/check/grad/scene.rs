@@ -10,6 +10,7 @@
 use crate::field::regularize::PlaneRegWeights;
 use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use crate::model::{Model, ModelGrad, Motion, Waypoints};
+use crate::train::rigidity::{RigidityGraph, RigidityWeights};
 use crate::train::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, batch_loss_and_grad, render_options,
 };
@@ -115,6 +116,14 @@ fn build(motion: Motion, seed: u64, twist: bool) -> GradScene {
         .iter()
         .map(|&i: &usize| splats.means[i].to_array())
         .collect();
+    let rigidity_sample = vec![0, 1, 3, 4, 6, 8];
+    let rigidity_graph = RigidityGraph::new(
+        &rigidity_sample
+            .iter()
+            .map(|&i: &usize| splats.means[i].to_array())
+            .collect::<Vec<_>>(),
+        3,
+    );
     let mut model = Model::new(
         splats,
         field,
@@ -155,6 +164,13 @@ fn build(motion: Motion, seed: u64, twist: bool) -> GradScene {
         lambda_anchor: 0.7,
         anchor_segment: Some(0),
         coherence_points,
+        rigidity: RigidityWeights {
+            rigidity: 0.3,
+            rotation: 0.2,
+            isometry: 0.4,
+        },
+        rigidity_sample,
+        rigidity_graph,
     };
     GradScene {
         model,
