@@ -5,10 +5,12 @@
 //! apply to every motion that moves Gaussians (velocity and deformation alike).
 //!
 //! For a sample of Gaussians drawn in local clusters ([`super::neighbours::local_clusters`])
-//! with their k nearest neighbours within the sample (canonical positions, weights
-//! `w_ij = exp(−d_ij/σ)`, [`super::neighbours::neighbour_pairs`]), the canonical state
-//! `(p⁰, R⁰)` as the reference, the state `(p, R)` at the rendered time, `M_i = R_i R_i⁰ᵀ` (Gaussian i's rotation
-//! since the canonical time), `d⁰_ij = p⁰_j − p⁰_i`, `W = Σ w_ij` and `ℓ² = Σ w_ij |d⁰_ij|² / W`:
+//! with their k nearest neighbours within the sample (canonical positions,
+//! [`super::neighbours::neighbour_pairs`]; P pairs, each weighted `w_ij = 1`), the canonical
+//! state `(p⁰, R⁰)` as the reference, the state `(p, R)` at the rendered time,
+//! `M_i = R_i R_i⁰ᵀ` (Gaussian i's rotation since the canonical time),
+//! `d⁰_ij = p⁰_j − p⁰_i`, `W = Σ w_ij = P` and a length `ℓ` (the training passes the spacing
+//! the Gaussians would have if spread evenly over the field's box, `(volume / N)^⅓`):
 //!
 //! ```text
 //! rigidity  L_rig = Σ w_ij |(p_j − p_i) − M_i d⁰_ij|² / (ℓ² W)   neighbours keep their offsets in i's frame
@@ -17,7 +19,9 @@
 //! ```
 //!
 //! All three are zero for any rigid motion of the whole cloud and scale-free (a scene scaled
-//! by s has the same losses). The neighbours, their weights and `ℓ²` form a
+//! by s, with ℓ, has the same losses). `ℓ` is not taken from the neighbour distances: a
+//! densification clone starts exactly on its parent, so those distances can be zero. The
+//! neighbours, their weights and `ℓ²` form a
 //! [`RigidityGraph`], built from the canonical positions when the sample is drawn and constant
 //! for the step (as the coherence loss's sample points are); the positions and rotations, at
 //! the rendered time and canonical, are differentiated exactly. Rotations are taken from the
@@ -73,30 +77,26 @@ pub struct RigidityGraph {
     pub pairs: Vec<(usize, usize, f64)>,
     /// `W = Σ w_ij`.
     pub sum_w: f64,
-    /// `ℓ² = Σ w_ij |d⁰_ij|² / W`.
+    /// `ℓ²`.
     pub len2: f64,
 }
 
 impl RigidityGraph {
     /// The `k` nearest neighbours of every sample point among `positions` (the sample's
-    /// canonical positions); empty with fewer than two points.
+    /// canonical positions), each pair of weight 1, and the length scale `length` (> 0);
+    /// empty with fewer than two points.
     #[must_use]
-    pub fn new(positions: &[[f64; 3]], k: usize) -> Self {
+    pub fn new(positions: &[[f64; 3]], k: usize, length: f64) -> Self {
         if positions.len() < 2 || k == 0 {
             return Self::default();
         }
         let (pairs, _) = neighbour_pairs(positions, k);
-        let sum_w: f64 = pairs.iter().map(|pr| pr.2).sum();
-        let d2 = |i: usize, j: usize| -> f64 {
-            (0..3)
-                .map(|a| (positions[j][a] - positions[i][a]).powi(2))
-                .sum()
-        };
-        let len2 = pairs.iter().map(|&(i, j, w, _)| w * d2(i, j)).sum::<f64>() / sum_w.max(1e-300);
+        #[allow(clippy::cast_precision_loss, reason = "pair counts are small")]
+        let sum_w = pairs.len() as f64;
         Self {
-            pairs: pairs.into_iter().map(|(i, j, w, _)| (i, j, w)).collect(),
+            pairs: pairs.into_iter().map(|(i, j, _, _)| (i, j, 1.0)).collect(),
             sum_w,
-            len2: len2.max(1e-24),
+            len2: (length * length).max(1e-300),
         }
     }
 
@@ -105,6 +105,19 @@ impl RigidityGraph {
     pub fn is_empty(&self) -> bool {
         self.pairs.is_empty() || self.sum_w <= 0.0
     }
+}
+
+/// The spacing of `n` points spread evenly over the box `[lo, hi]`: `(volume / n)^⅓` (the
+/// length scale the training gives [`RigidityGraph::new`]).
+#[must_use]
+pub fn even_spacing(lo: [f64; 3], hi: [f64; 3], n: usize) -> f64 {
+    let volume: f64 = (0..3).map(|a| (hi[a] - lo[a]).abs()).product();
+    #[allow(
+        clippy::cast_precision_loss,
+        reason = "Gaussian counts are far below 2^52"
+    )]
+    let per_point = volume / n.max(1) as f64;
+    per_point.cbrt()
 }
 
 /// A sample point: its canonical position and raw quaternion, and its position and raw
@@ -280,7 +293,7 @@ mod tests {
 
     fn graph_of(points: &[RigidPoint<f64>]) -> RigidityGraph {
         let pos: Vec<[f64; 3]> = points.iter().map(|s| s.p0.to_array()).collect();
-        RigidityGraph::new(&pos, 4)
+        RigidityGraph::new(&pos, 4, 0.8)
     }
 
     /// Every differentiated input: `[p⁰, q⁰, p, q]` per point (14 values).
@@ -435,10 +448,19 @@ mod tests {
                 ..*s
             })
             .collect();
+        let pos = |c: &[RigidPoint<f64>]| -> Vec<[f64; 3]> {
+            c.iter().map(|s| s.p0.to_array()).collect()
+        };
         let (a, b) = (
-            loss_of(&graph_of(&points), &points, &ALL),
-            loss_of(&graph_of(&scaled), &scaled, &ALL),
+            loss_of(&RigidityGraph::new(&pos(&points), 4, 0.5), &points, &ALL),
+            loss_of(&RigidityGraph::new(&pos(&scaled), 4, 1.5), &scaled, &ALL),
         );
         assert!((a - b).abs() < 1e-12 * a.max(1.0), "{a} vs {b}");
+    }
+
+    #[test]
+    fn even_spacing_is_the_cube_root_of_the_volume_per_point() {
+        assert!((even_spacing([0.0; 3], [2.0; 3], 8) - 1.0).abs() < 1e-12);
+        assert!((even_spacing([-1.0, 0.0, 0.0], [1.0, 4.0, 1.0], 1) - 2.0).abs() < 1e-12);
     }
 }

@@ -12,7 +12,7 @@ use super::densify::{DensifyReport, DensifyStats, densify_and_prune, reset_opaci
 use super::frames::TrainViews;
 use super::neighbours::local_clusters;
 use super::optim::{LearningRates, Optimizer, StateGroups};
-use super::rigidity::{RigidityGraph, RigidityWeights};
+use super::rigidity::{RigidityGraph, RigidityWeights, even_spacing};
 use super::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats,
     batch_loss_and_grad, render_options,
@@ -497,7 +497,8 @@ impl Trainer {
                 .iter()
                 .map(|&i| means[i].cast::<f64>().to_array())
                 .collect();
-            let graph = RigidityGraph::new(&positions, COHERENCE_K);
+            let (lo, hi) = self.model.field.hexplane().aabb();
+            let graph = RigidityGraph::new(&positions, COHERENCE_K, even_spacing(lo, hi, n));
             (picks, graph)
         } else {
             (Vec::new(), RigidityGraph::default())

@@ -123,6 +123,7 @@ fn build(motion: Motion, seed: u64, twist: bool) -> GradScene {
             .map(|&i: &usize| splats.means[i].to_array())
             .collect::<Vec<_>>(),
         3,
+        0.3,
     );
     let mut model = Model::new(
         splats,
