@@ -1,4 +1,4 @@
-//! Neighbour rigidity priors on the Gaussians at the rendered time (`docs/losses.md` §8): the
+//! Neighbour rigidity priors on the Gaussians at the rendered time (`docs/losses.md` §9): the
 //! local-rigidity, rotation-similarity and isometry losses of Dynamic 3D Gaussians (Luiten et
 //! al. 2024), measured against the canonical Gaussians. They know nothing of a scene: they
 //! only ask that neighbouring Gaussians move together, as pieces of one body do, and they
@@ -6,27 +6,29 @@
 //!
 //! For a sample of Gaussians drawn in local clusters ([`super::neighbours::local_clusters`])
 //! with their k nearest neighbours within the sample (canonical positions,
-//! [`super::neighbours::neighbour_pairs`]; P pairs, each weighted `w_ij = 1`), the canonical
-//! state `(p⁰, R⁰)` as the reference, the state `(p, R)` at the rendered time,
-//! `M_i = R_i R_i⁰ᵀ` (Gaussian i's rotation since the canonical time),
-//! `d⁰_ij = p⁰_j − p⁰_i`, `W = Σ w_ij = P` and a length `ℓ` (the training passes the spacing
-//! the Gaussians would have if spread evenly over the field's box, `(volume / N)^⅓`):
+//! [`super::neighbours::neighbour_pairs`]), the canonical state `(p⁰, R⁰)` as the reference,
+//! the state `(p, R)` at the rendered time, `M_i = R_i R_i⁰ᵀ` (Gaussian i's rotation since
+//! the canonical time), `d⁰_ij = p⁰_j − p⁰_i`, a length `ℓ` (the training passes the spacing
+//! the Gaussians would have if spread evenly over the field's box, `(volume / N)^⅓`), pair
+//! weights `w_ij = exp(−|d⁰_ij|²/(2ℓ²))`, `W = Σ w_ij` and the robust penalty
+//! `ρ(x) = 2(√(1 + x) − 1)` (`x` for small errors, `2√x` for large ones):
 //!
 //! ```text
-//! rigidity  L_rig = Σ w_ij |(p_j − p_i) − M_i d⁰_ij|² / (ℓ² W)   neighbours keep their offsets in i's frame
-//! rotation  L_rot = Σ w_ij ‖M_j − M_i‖²_F / W                     neighbours turn alike
-//! isometry  L_iso = Σ w_ij (|p_j − p_i| − |d⁰_ij|)² / (ℓ² W)      neighbours keep their distances
+//! rigidity  L_rig = Σ w_ij ρ(|(p_j − p_i) − M_i d⁰_ij|² / ℓ²) / W   neighbours keep their offsets in i's frame
+//! rotation  L_rot = Σ w_ij ρ(‖M_j − M_i‖²_F) / W                     neighbours turn alike
+//! isometry  L_iso = Σ w_ij ρ((|p_j − p_i| − |d⁰_ij|)² / ℓ²) / W      neighbours keep their distances
 //! ```
 //!
 //! All three are zero for any rigid motion of the whole cloud and scale-free (a scene scaled
-//! by s, with ℓ, has the same losses). `ℓ` is not taken from the neighbour distances: a
-//! densification clone starts exactly on its parent, so those distances can be zero. The
-//! neighbours, their weights and `ℓ²` form a
-//! [`RigidityGraph`], built from the canonical positions when the sample is drawn and constant
-//! for the step (as the coherence loss's sample points are); the positions and rotations, at
-//! the rendered time and canonical, are differentiated exactly. Rotations are taken from the
-//! raw quaternions as the renderer takes them (`R = R(q/|q|)`), so a quaternion gradient is
-//! that of the raw quaternion.
+//! by s, with ℓ, has the same losses). Two bodies that touch make pairs that cannot stay
+//! rigid: the distance weights count far pairs little and the robust penalty bounds the pull
+//! of any pair. `ℓ` is not taken from the neighbour distances: a densification clone starts
+//! exactly on its parent, so those distances can be zero. The neighbours, their weights and
+//! `ℓ²` form a [`RigidityGraph`], built from the canonical positions when the sample is drawn
+//! and constant for the step (as the coherence loss's sample points are); the positions and
+//! rotations, at the rendered time and canonical, are differentiated exactly. Rotations are
+//! taken from the raw quaternions as the renderer takes them (`R = R(q/|q|)`), so a
+//! quaternion gradient is that of the raw quaternion.
 
 use super::neighbours::neighbour_pairs;
 use evogs_math::quat::{rotation_from_raw, rotation_from_raw_vjp};
@@ -83,21 +85,27 @@ pub struct RigidityGraph {
 
 impl RigidityGraph {
     /// The `k` nearest neighbours of every sample point among `positions` (the sample's
-    /// canonical positions), each pair of weight 1, and the length scale `length` (> 0);
-    /// empty with fewer than two points.
+    /// canonical positions) and the length scale `length` (> 0); pair weights
+    /// `w_ij = exp(−|d⁰_ij|²/(2ℓ²))`, so that pairs far apart (across a gap between bodies)
+    /// count little. Empty with fewer than two points.
     #[must_use]
     pub fn new(positions: &[[f64; 3]], k: usize, length: f64) -> Self {
         if positions.len() < 2 || k == 0 {
             return Self::default();
         }
+        let len2 = (length * length).max(1e-300);
         let (pairs, _) = neighbour_pairs(positions, k);
-        #[allow(clippy::cast_precision_loss, reason = "pair counts are small")]
-        let sum_w = pairs.len() as f64;
-        Self {
-            pairs: pairs.into_iter().map(|(i, j, _, _)| (i, j, 1.0)).collect(),
-            sum_w,
-            len2: (length * length).max(1e-300),
-        }
+        let pairs: Vec<(usize, usize, f64)> = pairs
+            .into_iter()
+            .map(|(i, j, _, _)| {
+                let d2: f64 = (0..3)
+                    .map(|a| (positions[j][a] - positions[i][a]).powi(2))
+                    .sum();
+                (i, j, (-0.5 * d2 / len2).exp())
+            })
+            .collect();
+        let sum_w = pairs.iter().map(|p| p.2).sum();
+        Self { pairs, sum_w, len2 }
     }
 
     /// `true` if there are no pairs.
@@ -160,6 +168,18 @@ impl<T: Real> RigidPointGrad<T> {
     }
 }
 
+/// The robust penalty `ρ(x) = 2(√(1 + x) − 1)` of a squared, normalised error `x ≥ 0`:
+/// `x` for small errors, `2√x` for large ones, so a pair that is not rigid (two bodies that
+/// touch) pulls with a bounded force instead of one that grows with the error.
+fn robust(x: f64) -> f64 {
+    2.0 * ((1.0 + x).sqrt() - 1.0)
+}
+
+/// `ρ'(x) = 1/√(1 + x)`.
+fn robust_slope(x: f64) -> f64 {
+    1.0 / (1.0 + x).sqrt()
+}
+
 /// The three priors of `points` over `graph`; **writes** `scale·∂(Σ weighted losses)` with
 /// respect to every point into `grads`. Returns the unweighted losses (zero for an empty
 /// graph).
@@ -201,18 +221,20 @@ pub fn rigidity_loss_and_grad<T: Real>(
     let mut g_p0 = vec![Vec3::<f64>::zero(); m];
     let mut g_m = vec![Mat3::<f64>::zero(); m];
     let (c_rig, c_rot, c_iso) = (
-        weights.rigidity / (len2 * sum_w),
+        weights.rigidity / sum_w,
         weights.rotation / sum_w,
-        weights.isometry / (len2 * sum_w),
+        weights.isometry / sum_w,
     );
     for &(i, j, w) in &graph.pairs {
         let d0 = p0[j] - p0[i];
         let d = p[j] - p[i];
-        // Rigidity: e = d − M_i d⁰; ∂/∂d = 2we, ∂/∂d⁰ = −2w M_iᵀ e, ∂/∂M_i = −2w e d⁰ᵀ.
+        // Rigidity: e = d − M_i d⁰, x = |e|²/ℓ²; ∂/∂e = 2wρ'(x)e/ℓ² =: g, so ∂/∂d = g,
+        // ∂/∂d⁰ = −M_iᵀ g, ∂/∂M_i = −g d⁰ᵀ.
         let e = d - rel[i].mul_vec(d0);
-        out.rigidity += w * e.norm_squared();
+        let x = e.norm_squared() / len2;
+        out.rigidity += w * robust(x);
         if c_rig > 0.0 {
-            let g = e * (2.0 * w * c_rig);
+            let g = e * (2.0 * w * robust_slope(x) * c_rig / len2);
             g_p[j] += g;
             g_p[i] -= g;
             let g0 = rel[i].tr_mul_vec(g);
@@ -220,30 +242,34 @@ pub fn rigidity_loss_and_grad<T: Real>(
             g_p0[i] += g0;
             g_m[i] = g_m[i] - Mat3::outer(g, d0);
         }
-        // Rotation similarity: D = M_j − M_i; ∂/∂M_j = 2wD, ∂/∂M_i = −2wD.
+        // Rotation similarity: D = M_j − M_i, x = ‖D‖²; ∂/∂M_j = 2wρ'(x)D = −∂/∂M_i.
         let dm = rel[j] - rel[i];
-        out.rotation += w * dm.frobenius_dot(dm);
+        let x = dm.frobenius_dot(dm);
+        out.rotation += w * robust(x);
         if c_rot > 0.0 {
-            let g = dm.scale(2.0 * w * c_rot);
+            let g = dm.scale(2.0 * w * robust_slope(x) * c_rot);
             g_m[j] += g;
             g_m[i] = g_m[i] - g;
         }
-        // Isometry: δ = |d| − |d⁰|; ∂/∂d = 2wδ d/|d|, ∂/∂d⁰ = −2wδ d⁰/|d⁰|.
+        // Isometry: δ = |d| − |d⁰|, x = δ²/ℓ²; ∂/∂d = 2wρ'(x)δ d/(|d| ℓ²),
+        // ∂/∂d⁰ = −2wρ'(x)δ d⁰/(|d⁰| ℓ²).
         let (len, len0) = (d.norm(), d0.norm());
         let delta = len - len0;
-        out.isometry += w * delta * delta;
+        let x = delta * delta / len2;
+        out.isometry += w * robust(x);
         if c_iso > 0.0 && len > 0.0 && len0 > 0.0 {
-            let g = d * (2.0 * w * delta * c_iso / len);
+            let s = 2.0 * w * robust_slope(x) * delta * c_iso / len2;
+            let g = d * (s / len);
             g_p[j] += g;
             g_p[i] -= g;
-            let g0 = d0 * (2.0 * w * delta * c_iso / len0);
+            let g0 = d0 * (s / len0);
             g_p0[j] -= g0;
             g_p0[i] += g0;
         }
     }
-    out.rigidity /= len2 * sum_w;
+    out.rigidity /= sum_w;
     out.rotation /= sum_w;
-    out.isometry /= len2 * sum_w;
+    out.isometry /= sum_w;
     for (i, g) in grads.iter_mut().enumerate() {
         // M = R R⁰ᵀ: ∂/∂R = (∂/∂M) R⁰ and ∂/∂R⁰ = (∂/∂M)ᵀ R; then through R(q/|q|).
         let d_r = g_m[i].mul_mat(r0[i]).scale(scale);
