@@ -1,13 +1,19 @@
 //! A regression test of motion learning on a small dynamic scene that the test makes itself:
 //! a checkered patch of Gaussians slides across a static backdrop, filmed by a ring of six
 //! cameras at nine times. Velocity motion, trained briefly, must carry the patch along (its
-//! Gaussians move at least half the true distance, in the true direction) and must render
-//! held-out times (between the training times) clearly better than the static model.
+//! Gaussians move at least 80 % of the true distance, in the true direction) and must render
+//! held-out times (between the training times) far better than the static model (by 7 dB;
+//! it does by about 10 dB, and by 5.7 dB with the former default of trainable waypoints, which
+//! learnt two thirds of the travel).
+//!
+//! `cargo test --release -p evogs-cli --test motion_learning -- --ignored --nocapture` runs
+//! the ablation table of `docs/results.md` on the same scene (each technique's switch, velocity
+//! and deformation at equal settings).
 
 use evogs_cli::config::TrainConfig;
 use evogs_cli::eval::render_frame;
 use evogs_cli::field::HexPlaneConfig;
-use evogs_cli::model::Motion;
+use evogs_cli::model::{Motion, Waypoints};
 use evogs_cli::train::step::ViewData;
 use evogs_cli::train::trainer::Trainer;
 use evogs_math::{Par, Quat, Vec3};
@@ -127,13 +133,16 @@ fn config(motion: Motion) -> TrainConfig {
     c
 }
 
-/// Trains `motion` on the scene; the trainer and its mean PSNR on the held-out views.
-fn train(motion: Motion, train: &[ViewData<f32>], held_out: &[ViewData<f32>]) -> (Trainer, f64) {
+/// Trains `cfg` on the scene; the trainer and its mean PSNR on the held-out views.
+fn train_with(
+    cfg: TrainConfig,
+    train: &[ViewData<f32>],
+    held_out: &[ViewData<f32>],
+) -> (Trainer, f64) {
     let blobs = ground_truth();
     let pos: Vec<[f32; 3]> = blobs.iter().map(|b| b.0).collect();
     let col: Vec<[f32; 3]> = blobs.iter().map(|b| b.1).collect();
-    let mut t =
-        Trainer::new(config(motion), train.to_vec(), Some((&pos, Some(&col)))).expect("trainer");
+    let mut t = Trainer::new(cfg, train.to_vec(), Some((&pos, Some(&col)))).expect("trainer");
     while !t.finished() {
         t.step().expect("finite step");
     }
@@ -155,8 +164,14 @@ fn train(motion: Motion, train: &[ViewData<f32>], held_out: &[ViewData<f32>]) ->
     (t, psnr)
 }
 
-#[test]
-fn velocity_motion_carries_a_sliding_patch_and_beats_the_static_model() {
+/// Trains `motion` with the test's configuration.
+fn train(motion: Motion, train: &[ViewData<f32>], held_out: &[ViewData<f32>]) -> (Trainer, f64) {
+    train_with(config(motion), train, held_out)
+}
+
+/// Training views (six cameras, nine times) and held-out views (other directions, times
+/// between the training times).
+fn views() -> (Vec<ViewData<f32>>, Vec<ViewData<f32>>) {
     let blobs = ground_truth();
     let mut train_views = Vec::new();
     for k in 0..TIMES {
@@ -174,12 +189,13 @@ fn velocity_motion_carries_a_sliding_patch_and_beats_the_static_model() {
             view(&blobs, camera(k % CAMERAS, 0.5), t)
         })
         .collect();
-    let (_, psnr_static) = train(Motion::Static, &train_views, &held_out);
-    let (mut velocity, psnr_velocity) = train(Motion::Velocity, &train_views, &held_out);
-    println!("held-out PSNR: velocity {psnr_velocity:.2} dB, static {psnr_static:.2} dB");
+    (train_views, held_out)
+}
 
-    // The patch's Gaussians (canonical ones near its start) are carried along.
-    let model = velocity.model_mut();
+/// How far the patch's Gaussians (canonical ones near its start, weighted by opacity: one that
+/// has faded out carries nothing) move from t = 0 to t = 1: (Δx, Δy).
+fn patch_travel(t: &mut Trainer) -> (f32, f32) {
+    let model = t.model_mut();
     let near: Vec<usize> = model
         .canonical
         .means
@@ -195,7 +211,6 @@ fn velocity_motion_carries_a_sliding_patch_and_beats_the_static_model() {
     let (mut s0, mut s1) = (Splats::default(), Splats::default());
     let _ = model.splats_at(0.0, &mut stepper, &mut s0);
     let _ = model.splats_at(1.0, &mut stepper, &mut s1);
-    // Opacity-weighted: a Gaussian that has faded out carries nothing.
     let opacity = |i: usize| 1.0 / (1.0 + (-model.canonical.opacity_logits[i]).exp());
     let w: f32 = near.iter().map(|&i| opacity(i)).sum();
     let mean = |s: &Splats<f32>, a: usize| -> f32 {
@@ -204,21 +219,72 @@ fn velocity_motion_carries_a_sliding_patch_and_beats_the_static_model() {
             .sum::<f32>()
             / w
     };
-    let (x0, y0, x1, y1) = (mean(&s0, 0), mean(&s0, 1), mean(&s1, 0), mean(&s1, 1));
-    println!(
-        "patch moved by ({:.3}, {:.3}), true ({TRAVEL}, 0)",
-        x1 - x0,
-        y1 - y0
+    (mean(&s1, 0) - mean(&s0, 0), mean(&s1, 1) - mean(&s0, 1))
+}
+
+#[test]
+fn velocity_motion_carries_a_sliding_patch_and_beats_the_static_model() {
+    let (train_views, held_out) = views();
+    let (_, psnr_static) = train(Motion::Static, &train_views, &held_out);
+    let (mut velocity, psnr_velocity) = train(Motion::Velocity, &train_views, &held_out);
+    println!("held-out PSNR: velocity {psnr_velocity:.2} dB, static {psnr_static:.2} dB");
+
+    let (dx, dy) = patch_travel(&mut velocity);
+    println!("patch moved by ({dx:.3}, {dy:.3}), true ({TRAVEL}, 0)");
+    assert!(
+        dx > 0.8 * TRAVEL && dx < 1.2 * TRAVEL && dy.abs() < 0.1 * TRAVEL,
+        "the learnt motion carries the patch: moved ({dx}, {dy})"
     );
     assert!(
-        x1 - x0 > 0.5 * TRAVEL && x1 - x0 < 1.5 * TRAVEL && (y1 - y0).abs() < 0.25 * TRAVEL,
-        "the learnt motion carries the patch: moved ({}, {})",
-        x1 - x0,
-        y1 - y0
-    );
-    assert!(
-        psnr_velocity > psnr_static + 3.0,
+        psnr_velocity > psnr_static + 7.0,
         "the dynamics, not the appearance, carry the motion: velocity {psnr_velocity:.2} dB, \
          static {psnr_static:.2} dB"
     );
+}
+
+/// The ablation table of `docs/results.md` (run with `--ignored --nocapture`): each technique
+/// on and off, velocity and deformation at equal settings.
+#[test]
+#[ignore = "an experiment (about two minutes in release): prints the ablation table"]
+fn ablations_of_the_motion_learning_techniques() {
+    let (train_views, held_out) = views();
+    let (_, psnr_static) = train(Motion::Static, &train_views, &held_out);
+    println!("static: held-out PSNR {psnr_static:.2} dB");
+    type Tweak = fn(&mut TrainConfig);
+    let variants: [(&str, Tweak); 6] = [
+        ("defaults", |_| {}),
+        (
+            "five trainable waypoints, steps of 1/4 (the former default)",
+            |c| {
+                c.dynamics.waypoints = Waypoints::Trainable;
+                c.dynamics.step_fraction = 0.25;
+            },
+        ),
+        ("rigidity 0.3, rotation 0.01", |c| {
+            c.loss.lambda_rigidity = 0.3;
+            c.loss.lambda_rotation = 0.01;
+        }),
+        ("isometry 0.3", |c| c.loss.lambda_isometry = 0.3),
+        ("rigidity 3, rotation 0.1", |c| {
+            c.loss.lambda_rigidity = 3.0;
+            c.loss.lambda_rotation = 0.1;
+        }),
+        ("field learning rates x3", |c| {
+            c.optim.grid_lr_init *= 3.0;
+            c.optim.grid_lr_final *= 3.0;
+            c.optim.deformation_lr_init *= 3.0;
+            c.optim.deformation_lr_final *= 3.0;
+        }),
+    ];
+    println!("| variant | motion | held-out PSNR (dB) | patch travel (of {TRAVEL}) |");
+    println!("|---|---|---|---|");
+    for (name, tweak) in variants {
+        for motion in [Motion::Velocity, Motion::Deformation] {
+            let mut c = config(motion);
+            tweak(&mut c);
+            let (mut t, psnr) = train_with(c, &train_views, &held_out);
+            let (dx, _) = patch_travel(&mut t);
+            println!("| {name} | {} | {psnr:.2} | {dx:.3} |", motion.as_str());
+        }
+    }
 }
