@@ -7,6 +7,7 @@ use super::gemm::Gemm;
 use super::hexplane::{HexPlane, Lookup};
 use super::lanes::LANES;
 use super::mlp::{Mlp, MlpActivations, MlpWork, N_OUT};
+use super::profile::FieldProfile;
 use evogs_math::Real;
 
 /// Gaussians per work chunk.
@@ -63,7 +64,7 @@ impl<T: Gemm> ChunkWork<T> {
 
 /// Samples every plane for `rows` positions (into `samples`, scratch of at least `C`) and
 /// forms the features (Hadamard per level).
-pub(super) fn encode_chunk<T: Gemm>(
+fn encode_chunk<T: Gemm>(
     hex: &HexPlane,
     params: &[T],
     t: T,
@@ -91,6 +92,41 @@ pub(super) fn encode_chunk<T: Gemm>(
             }
         }
     }
+}
+
+/// The forward pass of one chunk: the HexPlane features of `rows` positions, then the MLP
+/// (scaled outputs into `out`), keeping what the VJP needs in `rec`.
+pub(super) fn forward_chunk<T: Gemm>(
+    hex: &HexPlane,
+    mlp: &Mlp,
+    params: &[T],
+    t: T,
+    pos: &[T],
+    stride: usize,
+    rows: usize,
+    rec: &mut ChunkRecord<T>,
+    work: &mut ChunkWork<T>,
+    out: &mut [T],
+    profile: Option<&FieldProfile>,
+) {
+    encode_chunk(
+        hex,
+        params,
+        t,
+        pos,
+        stride,
+        rows,
+        &mut work.samples,
+        &mut rec.features,
+    );
+    mlp.forward(
+        &params[hex.n_params()..],
+        &rec.features,
+        rows,
+        &mut rec.act,
+        out,
+        profile,
+    );
 }
 
 /// `ds_q = d_f ⊙ Π_{q' ≠ q} s_q` for the six planes of one level (`s_q` =

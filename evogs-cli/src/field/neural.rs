@@ -14,7 +14,7 @@
 //! ranges) in Gaussian order. Results are therefore bitwise identical for any thread count.
 //! Buffers are kept between calls and only grow.
 
-use super::chunk::{CHUNK, ChunkRecord, ChunkWork, decode_chunk_vjp, encode_chunk};
+use super::chunk::{CHUNK, ChunkRecord, ChunkWork, decode_chunk_vjp, forward_chunk};
 use super::gemm::Gemm;
 use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
@@ -288,23 +288,8 @@ impl<T: Gemm> NeuralField<T> {
         let run = |(ci, (out_c, (rec, work))): Item<'_, T>| {
             let rows = out_c.len() / N_OUT;
             let pos = &positions[ci * CHUNK * stride..];
-            encode_chunk(
-                hex,
-                params,
-                t,
-                pos,
-                stride,
-                rows,
-                &mut work.samples,
-                &mut rec.features,
-            );
-            mlp.forward(
-                &params[hex.n_params()..],
-                &rec.features,
-                rows,
-                &mut rec.act,
-                out_c,
-                profile,
+            forward_chunk(
+                hex, mlp, params, t, pos, stride, rows, rec, work, out_c, profile,
             );
         };
         match self.par {
@@ -462,24 +447,10 @@ impl<T: Gemm> NeuralField<T> {
             let rows = lks.len() / n_lk;
             let pos = &positions[ci * CHUNK * stride..];
             if !stored {
-                encode_chunk(
-                    hex,
-                    params,
-                    t,
-                    pos,
-                    stride,
-                    rows,
-                    &mut work.samples,
-                    &mut rec.features,
-                );
                 let mut out = [T::ZERO; CHUNK * N_OUT];
-                mlp.forward(
-                    &params[hex.n_params()..],
-                    &rec.features,
-                    rows,
-                    &mut rec.act,
-                    &mut out[..rows * N_OUT],
-                    profile,
+                let out = &mut out[..rows * N_OUT];
+                forward_chunk(
+                    hex, mlp, params, t, pos, stride, rows, rec, work, out, profile,
                 );
             }
             let mut d_o = &d_out[ci * CHUNK * N_OUT..ci * CHUNK * N_OUT + rows * N_OUT];

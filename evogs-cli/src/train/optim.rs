@@ -206,40 +206,36 @@ impl Optimizer {
         }
     }
 
+    /// Every per-Gaussian Adam state with its values per Gaussian (positions, log-scales and
+    /// quaternions of the canonical state and of every anchor, opacity, SH DC, higher SH).
+    fn for_each_gaussian_state(
+        &mut self,
+        sh_coeffs: usize,
+        mut f: impl FnMut(&mut AdamState, usize),
+    ) {
+        for st in std::iter::once(&mut self.canonical).chain(self.anchors.iter_mut()) {
+            f(&mut st.means, 3);
+            f(&mut st.log_scales, 3);
+            f(&mut st.quats, 4);
+        }
+        f(&mut self.opacity, 1);
+        f(&mut self.sh_dc, 3);
+        f(&mut self.sh_rest, 3 * (sh_coeffs - 1));
+    }
+
     /// Keeps the Adam entries of the Gaussians flagged in `keep`, then appends zero moments
     /// for `added` new Gaussians (densification).
     pub fn resize_gaussians(&mut self, keep: &[bool], added: usize, sh_coeffs: usize) {
-        let groups = std::iter::once(&mut self.canonical).chain(self.anchors.iter_mut());
-        for st in groups {
-            st.means.retain(keep, 3);
-            st.means.grow(added, 3);
-            st.log_scales.retain(keep, 3);
-            st.log_scales.grow(added, 3);
-            st.quats.retain(keep, 4);
-            st.quats.grow(added, 4);
-        }
-        self.opacity.retain(keep, 1);
-        self.opacity.grow(added, 1);
-        self.sh_dc.retain(keep, 3);
-        self.sh_dc.grow(added, 3);
-        self.sh_rest.retain(keep, 3 * (sh_coeffs - 1));
-        self.sh_rest.grow(added, 3 * (sh_coeffs - 1));
+        self.for_each_gaussian_state(sh_coeffs, |st, stride| {
+            st.retain(keep, stride);
+            st.grow(added, stride);
+        });
     }
-}
 
-impl Optimizer {
     /// Reorders the Adam entries of the Gaussians as [`Model::permute_gaussians`] reorders
     /// the Gaussians.
     pub fn permute_gaussians(&mut self, order: &[usize], sh_coeffs: usize) {
-        let groups = std::iter::once(&mut self.canonical).chain(self.anchors.iter_mut());
-        for st in groups {
-            st.means.permute(order, 3);
-            st.log_scales.permute(order, 3);
-            st.quats.permute(order, 4);
-        }
-        self.opacity.permute(order, 1);
-        self.sh_dc.permute(order, 3);
-        self.sh_rest.permute(order, 3 * (sh_coeffs - 1));
+        self.for_each_gaussian_state(sh_coeffs, |st, stride| st.permute(order, stride));
     }
 }
 
