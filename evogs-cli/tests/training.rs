@@ -271,7 +271,6 @@ fn curriculum_window_grows_and_initialises_anchors_on_arrival() {
     c.schedule.iterations = 50;
     c.schedule.warmup_time_window = 0.2;
     c.schedule.curriculum_iters = 30;
-    c.dynamics.waypoints = evogs_cli::model::Waypoints::Trainable;
     c.dynamics.anchors = 3;
     c.densify.from_iter = 1000;
     let mut t = trainer(c);
