@@ -4,9 +4,9 @@
 //! only ask that neighbouring Gaussians move together, as pieces of one body do, and they
 //! apply to every motion that moves Gaussians (velocity and deformation alike).
 //!
-//! For a sample of Gaussians drawn in local clusters ([`super::neighbours::local_clusters`])
+//! For a sample of Gaussians drawn in local clusters (`neighbours::local_clusters`)
 //! with their k nearest neighbours within the sample (canonical positions,
-//! [`super::neighbours::neighbour_pairs`]), the canonical state `(p⁰, R⁰)` as the reference,
+//! `neighbours::neighbour_pairs`), the canonical state `(p⁰, R⁰)` as the reference,
 //! the state `(p, R)` at the rendered time, `M_i = R_i R_i⁰ᵀ` (Gaussian i's rotation since
 //! the canonical time), `d⁰_ij = p⁰_j − p⁰_i`, a length `ℓ` (the training passes the spacing
 //! the Gaussians would have if spread evenly over the field's box, `(volume / N)^⅓`), pair
