@@ -133,8 +133,11 @@ proptest! {
         prop_assert!(reference.raster.n_contrib == tiled.raster.n_contrib);
     }
 
-    /// Adding a Gaussian never increases any pixel's final transmittance; alpha stays in
-    /// [0, 1) and colours non-negative.
+    /// Adding a Gaussian never increases the final transmittance of a pixel that compositing
+    /// did not stop early; alpha stays in [0, 1) and colours non-negative. (A pixel stops
+    /// before the Gaussian that would take its transmittance to 1e-4 or below, so one that
+    /// stopped ends with T ≤ 1e-4/(1 − 0.999) = 0.1, and an added Gaussian in front can make
+    /// it stop sooner, at a higher T: only pixels that ended above 0.1 are compared.)
     #[test]
     fn adding_a_gaussian_never_increases_transmittance(
         (s, cam) in scene(1..30, 20),
@@ -146,8 +149,11 @@ proptest! {
         let logit = (op / (1.0 - op)).ln();
         t.push(m, ls, q, logit, &vec![[0.3, 0.1, -0.2]; 16]);
         let b = render(&t, &cam, &o);
+        let stopped_below = 1e-4 / (1.0 - 0.999);
         for (x, y) in a.raster.final_t.iter().zip(&b.raster.final_t) {
-            prop_assert!(*y <= *x * (1.0 + 1e-15), "{y} > {x}");
+            if *x > stopped_below {
+                prop_assert!(*y <= *x * (1.0 + 1e-15), "{y} > {x}");
+            }
         }
         prop_assert!(b.raster.alpha.iter().all(|a| (0.0..1.0).contains(a)));
         prop_assert!(b.raster.rgb.data().iter().all(|c| *c >= 0.0));
