@@ -202,12 +202,14 @@ impl<T: Gemm> Model<T> {
         }
     }
 
-    /// The Morton order of the canonical positions in the field's box
-    /// ([`order::spatial_order`]).
-    #[must_use]
-    pub fn spatial_order(&self) -> Vec<usize> {
+    /// Puts the Gaussians in the Morton order of their canonical positions in the field's box
+    /// ([`order::spatial_order`]) and returns that order (Gaussian `i` is the old Gaussian
+    /// `order[i]`), for whatever else holds per-Gaussian state (the optimiser) to follow.
+    pub fn sort_spatially(&mut self) -> Vec<usize> {
         let (lo, hi) = self.field.hexplane().aabb();
-        order::spatial_order(&self.canonical.means, lo, hi)
+        let order = order::spatial_order(&self.canonical.means, lo, hi);
+        self.permute_gaussians(&order);
+        order
     }
 
     /// The state of anchor `k` (0 = canonical): positions, log-scales, raw quaternions.

@@ -75,7 +75,7 @@ fn child_offset(log_scale: Vec3<f32>, q: Quat<f32>, n: Vec3<f32>) -> Vec3<f32> {
 }
 
 /// Clones, splits and prunes; resizes the optimiser, puts the Gaussians back in spatial order
-/// ([`Model::spatial_order`]) and resets the statistics.
+/// ([`Model::sort_spatially`]) and resets the statistics.
 pub fn densify_and_prune(
     model: &mut Model<f32>,
     optim: &mut Optimizer,
@@ -161,8 +161,7 @@ pub fn densify_and_prune(
     let kept_new = keep[n..].iter().filter(|&&b| b).count();
     optim.resize_gaussians(&keep[..n], kept_new, k);
     // Clones and splits were appended: restore the spatial order.
-    let order = model.spatial_order();
-    model.permute_gaussians(&order);
+    let order = model.sort_spatially();
     optim.permute_gaussians(&order, k);
     *stats = DensifyStats::new(model.len());
     rep

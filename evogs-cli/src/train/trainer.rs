@@ -188,7 +188,7 @@ impl Trainer {
         };
         let field = NeuralField::new(&cfg.field, lo, hi, time, cfg.seed ^ 0x5eed);
         let method = cfg.dynamics.method;
-        let model = Model::new(
+        let mut model = Model::new(
             canonical,
             field,
             cfg.dynamics.motion,
@@ -198,9 +198,7 @@ impl Trainer {
             anchor_times(t0, t1, cfg.dynamics.anchors),
         );
         // The field reads consecutive Gaussians together: keep them in spatial order.
-        let mut model = model;
-        let order = model.spatial_order();
-        model.permute_gaussians(&order);
+        model.sort_spatially();
         let optim = Optimizer::new(&model);
         let n = model.len();
         let extent = views.camera_extent();

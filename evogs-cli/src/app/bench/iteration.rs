@@ -102,8 +102,7 @@ impl BenchRun {
         );
         model.dynamics_active = true;
         // As training does: the Gaussians in spatial order.
-        let order = model.spatial_order();
-        model.permute_gaussians(&order);
+        model.sort_spatially();
         let optim = Optimizer::new(&model);
         let grad = model.zero_grad();
         let n = model.len();
