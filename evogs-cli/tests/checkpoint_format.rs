@@ -38,6 +38,8 @@ fn tiny_config() -> TrainConfig {
     c.densify.interval = 4;
     c.densify.opacity_reset_interval = 0;
     c.loss.coherence_samples = 16;
+    // The coherence loss, off in `fast`, on so the test covers it.
+    c.loss.lambda_coherence = 0.01;
     c
 }
 

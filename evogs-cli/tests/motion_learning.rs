@@ -17,6 +17,7 @@ use evogs_cli::model::{Motion, Waypoints};
 use evogs_cli::train::step::ViewData;
 use evogs_cli::train::trainer::Trainer;
 use evogs_math::{Par, Quat, Vec3};
+use evogs_ode::Method;
 use evogs_splat::metrics::mse;
 use evogs_splat::{Image, PinholeCamera, RenderOptions, Splats, render};
 use std::sync::Arc;
@@ -251,11 +252,32 @@ fn ablations_of_the_motion_learning_techniques() {
     let (_, psnr_static) = train(Motion::Static, &train_views, &held_out);
     println!("static: held-out PSNR {psnr_static:.2} dB");
     type Tweak = fn(&mut TrainConfig);
-    let variants: [(&str, Tweak); 6] = [
+    let variants: [(&str, Tweak); 12] = [
         ("defaults", |_| {}),
         ("waypoints off, steps of 1/2", |c| {
             c.dynamics.waypoints = Waypoints::Off;
             c.dynamics.step_fraction = 0.5;
+        }),
+        ("snapshot waypoints", |c| {
+            c.dynamics.waypoints = Waypoints::Snapshot;
+        }),
+        ("anchor loss every 2 steps, weight 10", |c| {
+            c.loss.anchor_every = 2;
+            c.loss.lambda_anchor = 10.0;
+        }),
+        ("RK4 instead of midpoint", |c| {
+            c.dynamics.method = Method::Rk4;
+        }),
+        ("Euler instead of midpoint", |c| {
+            c.dynamics.method = Method::Euler;
+        }),
+        ("no temporal curriculum", |c| {
+            c.schedule.warmup_time_window = 1.0;
+            c.schedule.curriculum_iters = 0;
+            c.schedule.curriculum_focus = 0.0;
+        }),
+        ("velocity coherence 0.01", |c| {
+            c.loss.lambda_coherence = 0.01;
         }),
         ("rigidity 0.3, rotation 0.01", |c| {
             c.loss.lambda_rigidity = 0.3;

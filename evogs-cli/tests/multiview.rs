@@ -390,6 +390,8 @@ fn tiny_config() -> TrainConfig {
     c.densify.interval = 20;
     c.densify.opacity_reset_interval = 0;
     c.loss.coherence_samples = 64;
+    // The coherence loss, off in `fast`, on so the test covers it.
+    c.loss.lambda_coherence = 0.01;
     c.loss.anchor_every = 5;
     c
 }
