@@ -48,7 +48,7 @@ pub struct TrainConfig {
 const REMOVED_SECTIONS: [&str; 2] = ["spin_search", "orbit_search"];
 
 impl TrainConfig {
-    /// The `fast` preset: sized so the shipped 200×200 scene trains in about ten minutes
+    /// The `fast` preset: sized so the shipped 200×200 scene trains in a few minutes
     /// on two CPU cores: a smaller field (2 × 16 channels at [32, 32, 32, 16], MLP 32 wide),
     /// five anchors with one midpoint step (of at most a quarter of the time range) from the
     /// nearest one to each frame, at most 20 000 Gaussians, 200 static + 2500 dynamic
