@@ -5,6 +5,7 @@
 
 use evogs_math::diff::vjp_dot_test;
 use evogs_math::{Dual, Vec3};
+use evogs_splat::raster_ref;
 use evogs_splat::strategies::{background, camera, gaussian, permutation, rigid_motion, scene};
 use evogs_splat::{
     PinholeCamera, PixelGrad, ProjectedGrad, RenderOptions, Splats, TiledRasterizer, project,
@@ -149,7 +150,7 @@ proptest! {
         let logit = (op / (1.0 - op)).ln();
         t.push(m, ls, q, logit, &vec![[0.3, 0.1, -0.2]; 16]);
         let b = render(&t, &cam, &o);
-        let stopped_below = 1e-4 / (1.0 - 0.999);
+        let stopped_below = raster_ref::T_STOP / (1.0 - raster_ref::ALPHA_MAX);
         for (x, y) in a.raster.final_t.iter().zip(&b.raster.final_t) {
             if *x > stopped_below {
                 prop_assert!(*y <= *x * (1.0 + 1e-15), "{y} > {x}");

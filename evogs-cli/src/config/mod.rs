@@ -80,9 +80,9 @@ impl TrainConfig {
         c.dynamics.method = evogs_ode::Method::Midpoint;
         // `dynamics.waypoints = "off"` (every frame from the start, steps of half the range)
         // learns more of the motion and generalises better between the training times
-        // (toys-mini sparse:4 +0.2/+0.6 dB, the sliding patch of `tests/motion_learning.rs`
-        // +4.7 dB) but fits the training times worse (toys-mini full −1.5 dB): see
-        // docs/results.md.
+        // (toys-mini sparse:4 +0.4/+0.7 dB, the sliding patch of `tests/motion_learning.rs`
+        // +5.1 dB) but fits the training times worse (toys-mini full −2.1 dB) and diverged on
+        // toys sparse:4: see docs/results.md.
         c.dynamics.anchors = 5;
         c.dynamics.step_fraction = 0.25;
         // A short warm-up: the warm-up sees only the few views of its time window, and the
