@@ -21,12 +21,12 @@
 //!     --cams 3 --frames 10
 //! ```
 
+use evogs::config::TrainConfig;
+use evogs::data::image_io::save_png;
+use evogs::data::n3dv::{LlffPose, write_poses};
+use evogs::train::trainer::Trainer;
+use evogs::train::views::{supervised_indices, training_frames};
 use evogs_cli::app::load::load_dataset;
-use evogs_cli::config::TrainConfig;
-use evogs_cli::data::image_io::save_png;
-use evogs_cli::data::n3dv::{LlffPose, write_poses};
-use evogs_cli::train::trainer::Trainer;
-use evogs_cli::train::views::{supervised_indices, training_frames};
 use evogs_math::Vec3;
 use evogs_splat::Image;
 use std::path::{Path, PathBuf};

@@ -12,8 +12,8 @@
 //! cargo run --release -p evogs-cli --example step_check -- RUN [REFINE]
 //! ```
 
+use evogs::run::checkpoint;
 use evogs_cli::app::paths::RunFolder;
-use evogs_cli::run::checkpoint;
 use evogs_math::Par;
 use evogs_splat::Splats;
 use stats::pct;

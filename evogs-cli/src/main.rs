@@ -7,6 +7,8 @@
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
+use evogs::config::Preset;
+use evogs::data::{DataFormat, SplitName};
 use evogs_cli::app::Reporter;
 use evogs_cli::app::bench::{BenchArgs, parse_bench_motions, parse_sizes, run_bench};
 use evogs_cli::app::evaluate::{evaluate_run, parse_range};
@@ -15,12 +17,10 @@ use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
 use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
 use evogs_cli::app::study::{StudyArgs, StudyProtocol, parse_motions, run_study};
 use evogs_cli::app::train::{TrainArgs, positive_count, train};
-use evogs_cli::check::grad::check_grad;
-use evogs_cli::check::order::{Expect, check_order};
-use evogs_cli::config::Preset;
-use evogs_cli::data::{DataFormat, SplitName};
-use evogs_cli::verify::{LEGEND, verify_file};
 use evogs_ode::Method;
+use evogs_verify::check::grad::check_grad;
+use evogs_verify::check::order::{Expect, check_order};
+use evogs_verify::verify::{LEGEND, verify_file};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal as _;
 use std::path::PathBuf;

@@ -3,12 +3,12 @@
 //! output is written; times within the bound (negative and beyond 1 too) work. `eval` refuses
 //! a time range without frames and keeps a restricted evaluation apart from the whole one.
 
+use evogs::data::SplitName;
 use evogs_cli::app::Silent;
 use evogs_cli::app::evaluate::{evaluate_run, parse_range};
 use evogs_cli::app::export::export;
 use evogs_cli::app::paths::shipped_scene;
 use evogs_cli::app::render::{CameraPath, RenderArgs, render_sequence};
-use evogs_cli::data::SplitName;
 
 mod common;
 

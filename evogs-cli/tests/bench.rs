@@ -5,12 +5,12 @@
 mod common;
 
 use common::scratch;
+use evogs::field::Mlp;
+use evogs::model::Motion;
 use evogs_cli::app::Silent;
 use evogs_cli::app::bench::{
     BenchArgs, BenchReport, FieldSize, parse_bench_motions, parse_sizes, run_bench,
 };
-use evogs_cli::field::Mlp;
-use evogs_cli::model::Motion;
 use serde_json::Value;
 use std::process::Command;
 

@@ -3,17 +3,17 @@
 //! metadata the trainer holds. Runs of the first format (`checkpoint.bin`) still load,
 //! resume bit for bit, and are replaced by `checkpoint.safetensors` at their next save.
 
+use evogs::config::TrainConfig;
+use evogs::data::{Dataset, LoadOptions};
+use evogs::field::HexPlaneConfig;
+use evogs::run::archive::METADATA_KEY;
+use evogs::run::checkpoint;
+use evogs::train::step::ViewData;
+use evogs::train::trainer::Trainer;
+use evogs::train::views::training_views;
 use evogs_cli::app::Silent;
 use evogs_cli::app::paths::{RunFolder, shipped_scene};
 use evogs_cli::app::train::{TrainArgs, train};
-use evogs_cli::config::TrainConfig;
-use evogs_cli::data::{Dataset, LoadOptions};
-use evogs_cli::field::HexPlaneConfig;
-use evogs_cli::run::archive::METADATA_KEY;
-use evogs_cli::run::checkpoint;
-use evogs_cli::train::step::ViewData;
-use evogs_cli::train::trainer::Trainer;
-use evogs_cli::train::views::training_views;
 use safetensors::{Dtype, SafeTensors};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;

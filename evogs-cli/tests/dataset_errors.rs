@@ -1,9 +1,9 @@
 //! Dataset loading: the shipped scene loads, and every kind of bad input gives a one-line
 //! error naming the file and the problem (never a panic).
 
+use evogs::data::{Dataset, LoadOptions};
+use evogs::train::views::training_views;
 use evogs_cli::app::paths::shipped_scene;
-use evogs_cli::data::{Dataset, LoadOptions};
-use evogs_cli::train::views::training_views;
 use std::path::{Path, PathBuf};
 
 /// A copy of the shipped scene's JSON files and the first few frames, in a fresh folder.

@@ -11,7 +11,7 @@
 
 mod common;
 
-use evogs_cli::run::archive::Archive;
+use evogs::run::archive::Archive;
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -6,7 +6,7 @@
 
 #![cfg(unix)]
 
-use evogs_cli::run::checkpoint;
+use evogs::run::checkpoint;
 use std::io::{BufRead as _, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -4,6 +4,13 @@
 //! like fully cached frames), the commands on a multi-view run, and bad input refused before
 //! training with the file named.
 
+use evogs::config::{Protocol, TrainConfig};
+use evogs::data::image_io::save_png;
+use evogs::data::n3dv::{LlffPose, write_poses};
+use evogs::data::{DataFormat, Dataset, LoadOptions, SplitName};
+use evogs::field::HexPlaneConfig;
+use evogs::train::trainer::Trainer;
+use evogs::train::views::{supervised_indices, training_frames, training_views};
 use evogs_cli::app::Silent;
 use evogs_cli::app::evaluate::evaluate_run;
 use evogs_cli::app::export::export;
@@ -12,13 +19,6 @@ use evogs_cli::app::paths::shipped_multiview_scene;
 use evogs_cli::app::render::{CameraPath, RenderArgs, render_sequence};
 use evogs_cli::app::study::StudyProtocol;
 use evogs_cli::app::train::{TrainArgs, train};
-use evogs_cli::config::{Protocol, TrainConfig};
-use evogs_cli::data::image_io::save_png;
-use evogs_cli::data::n3dv::{LlffPose, write_poses};
-use evogs_cli::data::{DataFormat, Dataset, LoadOptions, SplitName};
-use evogs_cli::field::HexPlaneConfig;
-use evogs_cli::train::trainer::Trainer;
-use evogs_cli::train::views::{supervised_indices, training_frames, training_views};
 use evogs_math::Vec3;
 use evogs_splat::{Image, PinholeCamera};
 use std::path::{Path, PathBuf};
@@ -338,7 +338,7 @@ fn protocols_select_frame_indices_of_every_camera() {
     )
     .expect("loads");
     let mut cfg = TrainConfig::fast().data;
-    let pick = |cfg: &evogs_cli::config::DataConfig| supervised_indices(&ds.train, cfg);
+    let pick = |cfg: &evogs::config::DataConfig| supervised_indices(&ds.train, cfg);
     assert_eq!(pick(&cfg).len(), 10, "full: every frame of both cameras");
     cfg.protocol = Protocol::Sparse;
     cfg.stride = 2;
@@ -568,7 +568,7 @@ fn bad_rigs_are_refused_with_the_file_named() {
     });
     assert!(e.contains("poses_bounds.npy") && e.contains("magic"), "{e}");
     let e = broken("shape", SMALL, |d| {
-        let m = evogs_cli::data::npy::NpyMatrix {
+        let m = evogs::data::npy::NpyMatrix {
             rows: 3,
             cols: 15,
             data: vec![0.0; 45],
@@ -580,8 +580,8 @@ fn bad_rigs_are_refused_with_the_file_named() {
         "{e}"
     );
     let e = broken("rows", SMALL, |d| {
-        let m = evogs_cli::data::npy::NpyMatrix::read(&poses(d)).expect("read");
-        let two = evogs_cli::data::npy::NpyMatrix {
+        let m = evogs::data::npy::NpyMatrix::read(&poses(d)).expect("read");
+        let two = evogs::data::npy::NpyMatrix {
             rows: 2,
             cols: 17,
             data: m.data[..34].to_vec(),
@@ -593,7 +593,7 @@ fn bad_rigs_are_refused_with_the_file_named() {
         "{e}"
     );
     let e = broken("rigid", SMALL, |d| {
-        let mut m = evogs_cli::data::npy::NpyMatrix::read(&poses(d)).expect("read");
+        let mut m = evogs::data::npy::NpyMatrix::read(&poses(d)).expect("read");
         m.data[17] *= 2.0;
         m.write(&poses(d)).expect("write");
     });
@@ -602,7 +602,7 @@ fn bad_rigs_are_refused_with_the_file_named() {
         "{e}"
     );
     let e = broken("nan", SMALL, |d| {
-        let mut m = evogs_cli::data::npy::NpyMatrix::read(&poses(d)).expect("read");
+        let mut m = evogs::data::npy::NpyMatrix::read(&poses(d)).expect("read");
         m.data[16] = f64::NAN;
         m.write(&poses(d)).expect("write");
     });

@@ -5,12 +5,12 @@
 
 mod common;
 
+use evogs::run::checkpoint;
 use evogs_cli::app::Reporter;
 use evogs_cli::app::export::{SEQUENCE_FILE, Sequence, export, export_sequence};
 use evogs_cli::app::interrupt;
 use evogs_cli::app::paths::shipped_scene;
 use evogs_cli::app::render::{CameraPath, FrameCameras, RenderArgs, path_cameras, render_sequence};
-use evogs_cli::run::checkpoint;
 use std::path::{Path, PathBuf};
 
 /// Asks for an interrupt once `at` frames are done (what Ctrl-C does mid-render).

@@ -4,8 +4,8 @@
 
 mod common;
 
+use evogs::data::{Dataset, LoadOptions};
 use evogs_cli::app::paths::{extract_shipped, shipped_scene};
-use evogs_cli::data::{Dataset, LoadOptions};
 use std::path::Path;
 
 fn files(root: &Path) -> Vec<(String, Vec<u8>)> {

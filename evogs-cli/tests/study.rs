@@ -2,15 +2,15 @@
 //! their rows, reuse of finished runs, resumption of an interrupted run (bit for bit like the
 //! uninterrupted one), and bad input refused before any training.
 
+use evogs::model::Motion;
+use evogs::run::checkpoint;
+use evogs::train::trainer::Trainer;
+use evogs::train::views::{supervised_indices, training_views};
 use evogs_cli::app::Silent;
 use evogs_cli::app::load::load_dataset;
 use evogs_cli::app::paths::shipped_scene;
 use evogs_cli::app::study::{StudyArgs, StudyProtocol, StudySummary, run_study};
 use evogs_cli::app::train::{TrainArgs, resolve_config};
-use evogs_cli::model::Motion;
-use evogs_cli::run::checkpoint;
-use evogs_cli::train::trainer::Trainer;
-use evogs_cli::train::views::{supervised_indices, training_views};
 use std::path::{Path, PathBuf};
 
 const TINY: &str = r"
@@ -150,7 +150,7 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
     let targs = TrainArgs {
         config: Some(cfg.clone()),
         motion: Some(Motion::Velocity),
-        protocol: Some(evogs_cli::config::Protocol::Future),
+        protocol: Some(evogs::config::Protocol::Future),
         stride: Some(2),
         split_time: Some(0.75),
         seed: Some(0),

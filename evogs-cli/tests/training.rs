@@ -1,14 +1,14 @@
 //! Short training runs on the shipped scene at 50×50: the loss must drop clearly, and a run
 //! resumed from a checkpoint must continue bit for bit like an uninterrupted one.
 
+use evogs::config::TrainConfig;
+use evogs::data::{Dataset, LoadOptions};
+use evogs::field::HexPlaneConfig;
+use evogs::run::checkpoint;
+use evogs::train::step::ViewData;
+use evogs::train::trainer::Trainer;
+use evogs::train::views::training_views;
 use evogs_cli::app::paths::shipped_scene;
-use evogs_cli::config::TrainConfig;
-use evogs_cli::data::{Dataset, LoadOptions};
-use evogs_cli::field::HexPlaneConfig;
-use evogs_cli::run::checkpoint;
-use evogs_cli::train::step::ViewData;
-use evogs_cli::train::trainer::Trainer;
-use evogs_cli::train::views::training_views;
 
 fn tiny_config() -> TrainConfig {
     let mut c = TrainConfig::fast();
@@ -178,7 +178,7 @@ fn checkpoints_refuse_non_finite_values_both_ways() {
         "the previous checkpoint is kept"
     );
     // A NaN written by something else (a corrupt file) is refused when read.
-    let mut ar = evogs_cli::run::archive::Archive::read(&ck).expect("archive");
+    let mut ar = evogs::run::archive::Archive::read(&ck).expect("archive");
     let mut means = ar.f32("canonical.means").expect("means").to_vec();
     means[4] = f32::INFINITY;
     ar.put_f32("canonical.means", &means);
@@ -202,7 +202,7 @@ fn checkpoints_written_with_the_removed_searches_still_resume() {
     std::fs::create_dir_all(&dir).expect("tmp");
     let ck = dir.join("checkpoint.safetensors");
     checkpoint::save(&t, &ck).expect("save");
-    let mut ar = evogs_cli::run::archive::Archive::read(&ck).expect("archive");
+    let mut ar = evogs::run::archive::Archive::read(&ck).expect("archive");
     let cfg = ar.meta["config"]
         .as_str()
         .expect("stored config")

@@ -5,7 +5,7 @@
 //! to the input after the header, so it cannot invent data.
 #![no_main]
 
-use evogs_cli::run::archive::Archive;
+use evogs::run::archive::Archive;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -5,7 +5,7 @@
 //! stored `config.toml` resumes with exactly the settings it was trained with.
 #![no_main]
 
-use evogs_cli::config::TrainConfig;
+use evogs::config::TrainConfig;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

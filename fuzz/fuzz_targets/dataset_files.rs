@@ -9,9 +9,9 @@
 //! frame times increasing in [0, 1], as many as asked for.
 #![no_main]
 
-use evogs_cli::data::SplitName;
-use evogs_cli::data::dnerf::parse_transforms;
-use evogs_cli::data::n3dv::{parse_frame_times, parse_poses};
+use evogs::data::SplitName;
+use evogs::data::dnerf::parse_transforms;
+use evogs::data::n3dv::{parse_frame_times, parse_poses};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -6,7 +6,7 @@
 //! within ±`MAX_POSITION`.
 #![no_main]
 
-use evogs_cli::data::ply::{MAX_POSITION, PlyTable};
+use evogs::data::ply::{MAX_POSITION, PlyTable};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

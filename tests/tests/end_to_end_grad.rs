@@ -3,8 +3,8 @@
 //! central differences in f64 on a small random scene, for velocity motion with trainable
 //! anchors: every parameter group (canonical Gaussians, anchor 1, field), sampled entries.
 
-use evogs_cli::check::grad::model::{SAMPLES, training_step_rows};
-use evogs_cli::model::Motion;
+use evogs::model::Motion;
+use evogs_verify::check::grad::model::{SAMPLES, training_step_rows};
 
 #[test]
 fn training_step_gradient_of_every_parameter_group() {
@@ -42,7 +42,7 @@ fn training_step_gradient_of_every_parameter_group() {
 #[test]
 fn check_grad_passes_every_group() {
     // The `evogs check-grad` table with sampled model entries (every entry in the command).
-    let table = evogs_cli::check::grad::check_grad(SAMPLES);
+    let table = evogs_verify::check::grad::check_grad(SAMPLES);
     println!("{table}");
     assert!(table.rows.len() >= 30, "groups: {}", table.rows.len());
     assert!(table.passed(), "{table}");

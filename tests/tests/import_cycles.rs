@@ -1,6 +1,7 @@
 //! The layout is the architecture: inside every crate of the workspace, the files' imports
 //! form no circle (a file never depends, directly or through others, on a file that depends
-//! on it), and the core crates depend only downwards (math ← ode, math ← splat).
+//! on it), the core crates depend only downwards (math ← ode, math ← splat), and the crates
+//! form layers: the core crates, the method library `evogs`, `evogs-verify`, `evogs-cli`.
 //!
 //! A file's dependencies are the modules its `crate::`, `super::` and `self::` paths name
 //! (in `use` trees, braces expanded, and inline), each resolved to the deepest module file
@@ -259,7 +260,14 @@ fn root() -> PathBuf {
 #[test]
 fn no_crate_has_an_import_circle() {
     let mut found = Vec::new();
-    for krate in ["evogs-math", "evogs-ode", "evogs-splat", "evogs-cli"] {
+    for krate in [
+        "evogs-math",
+        "evogs-ode",
+        "evogs-splat",
+        "evogs",
+        "evogs-verify",
+        "evogs-cli",
+    ] {
         let g = graph(&root().join(krate).join("src"));
         assert!(g.len() > 5, "{krate}: read {} modules", g.len());
         for c in circles(&g) {
@@ -329,4 +337,45 @@ fn core_crates_depend_only_downwards() {
     assert!(!has("evogs-math", "evogs-ode") && !has("evogs-math", "evogs-splat"));
     assert!(!has("evogs-ode", "evogs-splat") && !has("evogs-splat", "evogs-ode"));
     assert!(has("evogs-ode", "evogs-math") && has("evogs-splat", "evogs-math"));
+}
+
+#[test]
+fn the_crates_depend_one_way() {
+    // math <- ode, math <- splat; the method library above them; verification above the
+    // library; the commands on top. Each crate names only crates of lower layers.
+    let layers: [&[&str]; 5] = [
+        &["evogs-math"],
+        &["evogs-ode", "evogs-splat"],
+        &["evogs"],
+        &["evogs-verify"],
+        &["evogs-cli"],
+    ];
+    let manifest = |krate: &str| -> String {
+        std::fs::read_to_string(root().join(krate).join("Cargo.toml")).expect("manifest")
+    };
+    let names = |krate: &str| -> Vec<String> {
+        manifest(krate)
+            .lines()
+            .filter_map(|l| l.split_whitespace().next())
+            .filter(|w| w.starts_with("evogs"))
+            .map(str::to_string)
+            .collect()
+    };
+    for (level, crates) in layers.iter().enumerate() {
+        for krate in *crates {
+            for dep in names(krate) {
+                let Some(dep_level) = layers.iter().position(|l| l.contains(&dep.as_str())) else {
+                    continue;
+                };
+                assert!(
+                    dep_level < level,
+                    "{krate} (layer {level}) depends on {dep} (layer {dep_level})"
+                );
+            }
+        }
+    }
+    let lib = names("evogs");
+    for low in ["evogs-math", "evogs-ode", "evogs-splat"] {
+        assert!(lib.iter().any(|d| d == low), "evogs builds on {low}");
+    }
 }

@@ -1,10 +1,10 @@
 //! Every reference-vector file copied into the repository (`tests/data/oracle/*.json`) goes
-//! through `evogs verify` (`evogs_cli::verify::verify_file`): every row must pass. A file of
+//! through `evogs verify` (`evogs_verify::verify::verify_file`): every row must pass. A file of
 //! unknown kind, a malformed file (missing field, wrong shape), invalid JSON and a missing
 //! file each give an error that names the file (and the JSON path where it applies).
 
-use evogs_cli::verify::{Kind, VerifyError, verify_file, verify_value};
 use evogs_tests::oracle_files;
+use evogs_verify::verify::{Kind, VerifyError, verify_file, verify_value};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 

@@ -4,9 +4,9 @@ use super::Reporter;
 use super::error::CommandError;
 use super::load::load_dataset;
 use super::paths::RunFolder;
-use crate::data::{DataFormat, SplitName};
-use crate::eval::{SplitMetrics, evaluate};
-use crate::run::checkpoint;
+use evogs::data::{DataFormat, SplitName};
+use evogs::eval::{SplitMetrics, evaluate};
+use evogs::run::checkpoint;
 use evogs_math::Par;
 use std::path::{Path, PathBuf};
 
@@ -102,7 +102,7 @@ pub fn evaluate_run(
     };
     let path = folder.metrics(&name);
     let json = serde_json::to_string_pretty(&m).unwrap_or_default();
-    crate::atomic::write_atomic(&path, json.as_bytes())
+    evogs::atomic::write_atomic(&path, json.as_bytes())
         .map_err(|e| CommandError(format!("{}: {e}", path.display())))?;
     Ok((m, path))
 }

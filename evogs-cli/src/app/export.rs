@@ -8,9 +8,9 @@ use super::error::CommandError;
 use super::paths::RunFolder;
 use super::render::frame_time;
 use super::{Reporter, interrupt};
-use crate::data::ply::PlyTable;
-use crate::model::Model;
-use crate::run::checkpoint;
+use evogs::data::ply::PlyTable;
+use evogs::model::Model;
+use evogs::run::checkpoint;
 use evogs_splat::Splats;
 use std::path::{Path, PathBuf};
 
@@ -143,7 +143,7 @@ pub fn export_sequence(
     }
     rep.finish();
     let json = serde_json::to_string_pretty(&seq).unwrap_or_default();
-    crate::atomic::write_atomic_named(&out.join(SEQUENCE_FILE), json.as_bytes())
+    evogs::atomic::write_atomic_named(&out.join(SEQUENCE_FILE), json.as_bytes())
         .map_err(CommandError)?;
     Ok(seq)
 }

@@ -5,8 +5,8 @@
 
 use super::error::CommandError;
 use super::interrupt;
-use crate::data::gif_writer::GifWriter;
-use crate::data::image_io;
+use evogs::data::gif_writer::GifWriter;
+use evogs::data::image_io;
 use evogs_splat::Image;
 use std::path::{Path, PathBuf};
 

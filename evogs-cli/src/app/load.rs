@@ -1,8 +1,8 @@
 //! Loading a run's dataset with the run's data settings.
 
 use super::error::CommandError;
-use crate::config::TrainConfig;
-use crate::data::{Dataset, LoadOptions};
+use evogs::config::TrainConfig;
+use evogs::data::{Dataset, LoadOptions};
 use std::path::Path;
 
 /// The dataset options of a run's data configuration (layout, background, downscale,
@@ -24,7 +24,7 @@ pub fn load_options(cfg: &TrainConfig, images: bool) -> LoadOptions {
 /// Loads a dataset with the run's data settings ([`load_options`]). Every frame's file and
 /// size is checked. With `images`, the images are decoded now if all of them fit the frame
 /// budget (`data.cache_mb`); otherwise (and without `images`) they stay on disk and are
-/// decoded when used ([`crate::data::View::image_or_decode`], the training frame cache).
+/// decoded when used ([`evogs::data::View::image_or_decode`], the training frame cache).
 ///
 /// # Errors
 /// Any data problem, naming the file.

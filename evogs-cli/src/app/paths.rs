@@ -162,7 +162,7 @@ pub fn extract_shipped(dir: &Path) -> std::io::Result<()> {
     }
     std::fs::create_dir_all(dir)?;
     SHIPPED.extract(dir)?;
-    crate::atomic::write_atomic(&marker, env!("CARGO_PKG_VERSION").as_bytes())
+    evogs::atomic::write_atomic(&marker, env!("CARGO_PKG_VERSION").as_bytes())
 }
 
 /// The multi-view scene shipped in the repository (`data/toys-mv-mini`, N3DV layout), found

@@ -6,13 +6,13 @@ use super::load::load_dataset;
 use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
 use super::{Reporter, interrupt, plot};
-use crate::config::{Preset, Protocol, ScheduleConfig, TrainConfig};
-use crate::data::{DataFormat, Dataset, SplitName};
-use crate::eval::{SplitMetrics, evaluate};
-use crate::model::Motion;
-use crate::run::checkpoint;
-use crate::train::trainer::{LogRow, Trainer};
-use crate::train::views::{supervised_indices, training_frames};
+use evogs::config::{Preset, Protocol, ScheduleConfig, TrainConfig};
+use evogs::data::{DataFormat, Dataset, SplitName};
+use evogs::eval::{SplitMetrics, evaluate};
+use evogs::model::Motion;
+use evogs::run::checkpoint;
+use evogs::train::trainer::{LogRow, Trainer};
+use evogs::train::views::{supervised_indices, training_frames};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -207,7 +207,7 @@ fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
             r.lr_position
         );
     }
-    crate::atomic::write_atomic(path, s.as_bytes())
+    evogs::atomic::write_atomic(path, s.as_bytes())
         .map_err(|e| CommandError(format!("{}: cannot write the log: {e}", path.display())))
 }
 
@@ -333,10 +333,10 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             run.dir.display()
         ))
     })?;
-    crate::atomic::write_atomic(&run.config(), cfg.to_toml().as_bytes())
+    evogs::atomic::write_atomic(&run.config(), cfg.to_toml().as_bytes())
         .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?;
     let abs = std::fs::canonicalize(&data_dir).unwrap_or(data_dir.clone());
-    crate::atomic::write_atomic(&run.data_ref(), abs.display().to_string().as_bytes())
+    evogs::atomic::write_atomic(&run.data_ref(), abs.display().to_string().as_bytes())
         .map_err(|e| CommandError(format!("{}: {e}", run.data_ref().display())))?;
     let mut t = if resuming {
         let t = checkpoint::resume(&run.checkpoint(), views).map_err(CommandError::from_display)?;
@@ -364,7 +364,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
                 t.model().len()
             ));
         }
-        let psnr = crate::train::trainer::psnr_of_mse(r.losses.mse);
+        let psnr = evogs::train::trainer::psnr_of_mse(r.losses.mse);
         rep.progress(
             t.iteration(),
             &format!(
@@ -426,7 +426,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         m.iterations = t.iteration();
         m.train_seconds = t.train_seconds();
         let json = serde_json::to_string_pretty(&m).unwrap_or_default();
-        crate::atomic::write_atomic(&run.metrics("test"), json.as_bytes())
+        evogs::atomic::write_atomic(&run.metrics("test"), json.as_bytes())
             .map_err(|e| CommandError(format!("{}: {e}", run.metrics("test").display())))?;
         outcome.test = Some(m);
     }

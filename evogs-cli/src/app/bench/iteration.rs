@@ -7,14 +7,14 @@
 
 use super::report::Phases;
 use super::scene::{BenchScene, SH_DEGREE};
-use crate::config::TrainConfig;
-use crate::field::regularize::PlaneRegWeights;
-use crate::field::{FieldProfile, FieldTimes, NeuralField, TimeMapping};
-use crate::model::{Model, ModelGrad, Motion, Waypoints};
-use crate::train::densify::DensifyStats;
-use crate::train::optim::{LearningRates, Optimizer};
-use crate::train::rigidity::{RigidityGraph, RigidityWeights};
-use crate::train::step::{
+use evogs::config::TrainConfig;
+use evogs::field::regularize::PlaneRegWeights;
+use evogs::field::{FieldProfile, FieldTimes, NeuralField, TimeMapping};
+use evogs::model::{Model, ModelGrad, Motion, Waypoints};
+use evogs::train::densify::DensifyStats;
+use evogs::train::optim::{LearningRates, Optimizer};
+use evogs::train::rigidity::{RigidityGraph, RigidityWeights};
+use evogs::train::step::{
     StepSettings, StepWorkspace, ViewData, accumulate_screen_stats, batch_loss_and_grad,
     render_options,
 };

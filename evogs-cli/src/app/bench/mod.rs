@@ -24,8 +24,8 @@ pub use threads::Threads;
 use super::Reporter;
 use super::error::CommandError;
 use super::interrupt;
-use crate::config::TrainConfig;
-use crate::model::Motion;
+use evogs::config::TrainConfig;
+use evogs::model::Motion;
 use std::path::PathBuf;
 
 /// The largest scene the bench builds.
@@ -325,7 +325,7 @@ pub fn run_bench(args: &BenchArgs, rep: &mut dyn Reporter) -> Result<BenchReport
     };
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report).map_err(CommandError::from_display)?;
-        crate::atomic::write_atomic_named(path, text.as_bytes()).map_err(CommandError)?;
+        evogs::atomic::write_atomic_named(path, text.as_bytes()).map_err(CommandError)?;
     }
     Ok(report)
 }

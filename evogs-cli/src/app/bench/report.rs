@@ -1,6 +1,6 @@
 //! The figures of `evogs bench` ([`BenchReport`], written as JSON) and their text tables.
 
-use crate::model::Motion;
+use evogs::model::Motion;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 

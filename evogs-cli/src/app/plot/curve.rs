@@ -3,7 +3,7 @@
 use super::font::FAMILY;
 use super::png::{Area, render_png};
 use super::ticks::{distinct_labels, log_ticks};
-use crate::train::trainer::LogRow;
+use evogs::train::trainer::LogRow;
 use plotters::prelude::*;
 use std::path::Path;
 

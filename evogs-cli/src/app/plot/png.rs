@@ -1,5 +1,5 @@
 //! Rendering a plot into an in-memory RGB buffer with `plotters`' bitmap backend, then writing
-//! it as a PNG atomically ([`crate::data::image_io::save_rgb8`]).
+//! it as a PNG atomically ([`evogs::data::image_io::save_rgb8`]).
 
 use plotters::coord::Shift;
 use plotters::prelude::{BitMapBackend, DrawingArea, IntoDrawingArea, WHITE};
@@ -29,5 +29,5 @@ pub(super) fn render_png(
     }
     let img = image::RgbImage::from_raw(width, height, buf)
         .ok_or_else(|| "plot buffer of the wrong size".to_string())?;
-    crate::data::image_io::save_rgb8(&img, path).map_err(|e| e.to_string())
+    evogs::data::image_io::save_rgb8(&img, path).map_err(|e| e.to_string())
 }

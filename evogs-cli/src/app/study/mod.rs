@@ -29,8 +29,8 @@ use super::load::load_dataset;
 use super::paths::{RunFolder, shipped_scene};
 use super::plot::{BarGroup, save_bars};
 use super::train::{TrainArgs, resolve_config};
-use crate::config::{Preset, TrainConfig};
-use crate::model::Motion;
+use evogs::config::{Preset, TrainConfig};
+use evogs::model::Motion;
 use progress::{ChannelReporter, Message, StudyProgress};
 use runner::{PlannedRun, RunState, execute, read_record, write_atomic};
 use std::path::{Path, PathBuf};
@@ -380,7 +380,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
 fn train_pending(
     runs: &[PlannedRun],
     pending: &[usize],
-    ds: &crate::data::Dataset,
+    ds: &evogs::data::Dataset,
     sets: &[Vec<HeldOutSet>],
     protocols: &[StudyProtocol],
     jobs: usize,

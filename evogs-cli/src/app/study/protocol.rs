@@ -8,9 +8,9 @@
 //! | `future:TAU` | training views with `t ≤ TAU` | test `t ≤ TAU` (interpolation); test `t > TAU` (extrapolation); the `future` split if the dataset has one |
 //! | `backward:TAU` | training views with `t ≥ TAU` | test `t ≥ TAU` (interpolation); test `t < TAU` (extrapolation); the `future` split if any |
 
-use crate::config::{DataConfig, Protocol};
-use crate::data::{Dataset, SplitName, View};
-use crate::train::views::supervised_indices;
+use evogs::config::{DataConfig, Protocol};
+use evogs::data::{Dataset, SplitName, View};
+use evogs::train::views::supervised_indices;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -96,7 +96,7 @@ impl StudyProtocol {
             protocol: Protocol::Full,
             stride: 2,
             split_time: 0.5,
-            ..crate::config::TrainConfig::fast().data
+            ..evogs::config::TrainConfig::fast().data
         };
         self.apply(&mut cfg);
         let supervised = supervised_indices(&ds.train, &cfg);
@@ -304,7 +304,7 @@ mod tests {
             width: 4,
             height: 4,
             image: None,
-            decode: crate::data::image_io::FrameDecode::default(),
+            decode: evogs::data::image_io::FrameDecode::default(),
         }
     }
 
@@ -312,7 +312,7 @@ mod tests {
     fn dataset(future: &[f64]) -> Dataset {
         Dataset {
             root: PathBuf::from("tiny"),
-            format: crate::data::DataFormat::Dnerf,
+            format: evogs::data::DataFormat::Dnerf,
             rig: Vec::new(),
             train: (0..8).map(|i| view(f64::from(i) / 7.0)).collect(),
             val: Vec::new(),

@@ -2,7 +2,7 @@
 //! (`study.json`) with its aggregated table, and the table as Markdown (`study.md`).
 
 use super::protocol::StudyProtocol;
-use crate::model::Motion;
+use evogs::model::Motion;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 

@@ -7,10 +7,10 @@ use crate::app::Reporter;
 use crate::app::error::CommandError;
 use crate::app::paths::RunFolder;
 use crate::app::train::{TrainArgs, train};
-use crate::data::Dataset;
-use crate::eval::evaluate_views;
-use crate::model::Motion;
-use crate::run::checkpoint;
+use evogs::data::Dataset;
+use evogs::eval::evaluate_views;
+use evogs::model::Motion;
+use evogs::run::checkpoint;
 use evogs_math::Par;
 use std::path::{Path, PathBuf};
 
@@ -83,12 +83,12 @@ pub(super) fn read_record(path: &Path) -> Result<RunRecord, CommandError> {
     })
 }
 
-/// Writes `bytes` to `path` atomically ([`crate::atomic`]).
+/// Writes `bytes` to `path` atomically ([`evogs::atomic`]).
 ///
 /// # Errors
 /// I/O failures, naming the file.
 pub(super) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CommandError> {
-    crate::atomic::write_atomic_named(path, bytes).map_err(CommandError)
+    evogs::atomic::write_atomic_named(path, bytes).map_err(CommandError)
 }
 
 /// Trains (or resumes) the run, evaluates its held-out sets and writes its record.

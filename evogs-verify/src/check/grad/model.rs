@@ -11,9 +11,9 @@ use super::scene::{
     grad_scene_twist, param_groups, sample_entries, second_view,
 };
 use super::{GradRow, check_fn, uniform};
-use crate::model::{Model, ModelGrad, Motion};
-use crate::train::step::{StepLosses, ViewData};
 use core::cell::RefCell;
+use evogs::model::{Model, ModelGrad, Motion};
+use evogs::train::step::{StepLosses, ViewData};
 use evogs_math::diff::{GradCheck, GradReport};
 use evogs_math::rng::SplitMix64;
 use evogs_ode::VectorField;

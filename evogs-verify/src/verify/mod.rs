@@ -19,10 +19,10 @@
 //! or wrong shape is a [`VerifyError`] naming the file (and the JSON path).
 //!
 //! ```no_run
-//! let report = evogs_cli::verify::verify_file("tests/data/oracle/so3_shared_cases.json".as_ref())?;
+//! let report = evogs_verify::verify::verify_file("tests/data/oracle/so3_shared_cases.json".as_ref())?;
 //! println!("{report}");
 //! assert!(report.passed());
-//! # Ok::<(), evogs_cli::verify::VerifyError>(())
+//! # Ok::<(), evogs_verify::verify::VerifyError>(())
 //! ```
 
 pub mod decisions;

@@ -6,7 +6,7 @@
 //! in training).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use evogs_cli::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
+use evogs::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
 use evogs_ode::VectorField;

@@ -2,7 +2,7 @@
 //! scales) against central differences in f64, the dot-product test, and bitwise agreement of
 //! sequential and parallel evaluation.
 
-use evogs_cli::field::{FieldProfile, HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
+use evogs::field::{FieldProfile, HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use evogs_math::Par;
 use evogs_math::diff::{GradCheck, central_gradient, central_jvp, vjp_dot_test};
 use evogs_math::rng::SplitMix64;
@@ -185,7 +185,7 @@ fn batched_vjp_over_several_chunks_is_the_sum_of_single_gaussian_vjps() {
     // Gaussians for the parameters. (Central differences over this many Gaussians would sit
     // on ReLU and cell kinks; the single-Gaussian VJP is checked against them above.)
     let time = UNIT_TIME;
-    let n = evogs_cli::field::CHUNK + 37;
+    let n = evogs::field::CHUNK + 37;
     let y = states(n, 13);
     let mut rng = SplitMix64::new(17);
     let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();

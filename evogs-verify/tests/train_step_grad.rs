@@ -3,17 +3,17 @@
 //! anchor loss and the neighbour rigidity priors) against central differences of
 //! the same step's loss, in f64, for every parameter group (sampled entries), in velocity and
 //! deformation motion, and on a batch of two views. The scene and the per-group check live in
-//! `evogs_cli::check::grad` (shared with `evogs check-grad` and the cross-crate tests).
+//! `evogs_verify::check::grad` (shared with `evogs check-grad` and the cross-crate tests).
 
-use evogs_cli::check::grad::GradRow;
-use evogs_cli::check::grad::model::{
+use evogs::model::Motion;
+use evogs::train::step::StepLosses;
+use evogs_verify::check::grad::GradRow;
+use evogs_verify::check::grad::model::{
     SAMPLES, batch_training_step_rows, training_step_rows, twist_training_step_rows,
 };
-use evogs_cli::check::grad::scene::{
+use evogs_verify::check::grad::scene::{
     batch_step_loss_and_grad, grad_scene, param_groups, second_view,
 };
-use evogs_cli::model::Motion;
-use evogs_cli::train::step::StepLosses;
 
 fn check(motion: Motion, seed: u64, groups: usize) {
     assert_rows(motion, training_step_rows(motion, seed, SAMPLES), groups);

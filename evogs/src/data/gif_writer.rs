@@ -11,7 +11,7 @@ use std::path::Path;
 /// dropping it unfinished leaves no file.
 ///
 /// ```
-/// use evogs_cli::data::gif_writer::GifWriter;
+/// use evogs::data::gif_writer::GifWriter;
 /// use evogs_splat::Image;
 /// let dir = std::env::temp_dir().join(format!("evogs-gif-doc-{}", std::process::id()));
 /// std::fs::create_dir_all(&dir).unwrap();

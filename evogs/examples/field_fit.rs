@@ -12,8 +12,8 @@
 //! cargo run --release -p evogs-cli --example field_fit -- [LR_MULT] [fast|paper]
 //! ```
 
-use evogs_cli::config::TrainConfig;
-use evogs_cli::field::{NeuralField, TimeMapping};
+use evogs::config::TrainConfig;
+use evogs::field::{NeuralField, TimeMapping};
 use evogs_math::Vec3;
 use evogs_math::rng::SplitMix64;
 use evogs_math::so3::exp_quat;

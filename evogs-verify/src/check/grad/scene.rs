@@ -7,11 +7,11 @@
 //! [`param_groups`] names every trainable array of a [`Model`] with access to an entry and to
 //! its gradient, so a check can perturb any parameter and read the matching gradient.
 
-use crate::field::regularize::PlaneRegWeights;
-use crate::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
-use crate::model::{Model, ModelGrad, Motion, Waypoints};
-use crate::train::rigidity::{RigidityGraph, RigidityWeights};
-use crate::train::step::{
+use evogs::field::regularize::PlaneRegWeights;
+use evogs::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
+use evogs::model::{Model, ModelGrad, Motion, Waypoints};
+use evogs::train::rigidity::{RigidityGraph, RigidityWeights};
+use evogs::train::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, batch_loss_and_grad, render_options,
 };
 use evogs_math::activation::logit;

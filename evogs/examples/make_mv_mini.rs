@@ -15,8 +15,8 @@
 //! cargo run --release -p evogs-cli --example make_mv_mini -- SOURCE/toys-mv data/toys-mv-mini
 //! ```
 
-use evogs_cli::data::image_io::{downscale, load_png_rgb, save_png};
-use evogs_cli::data::n3dv::{LlffPose, read_poses, write_poses};
+use evogs::data::image_io::{downscale, load_png_rgb, save_png};
+use evogs::data::n3dv::{LlffPose, read_poses, write_poses};
 use std::path::{Path, PathBuf};
 
 const CAMERAS: [usize; 5] = [0, 2, 4, 6, 8];

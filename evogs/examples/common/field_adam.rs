@@ -1,8 +1,8 @@
 //! Adam on the neural field's two parameter groups (HexPlane grids and MLP), as training steps
 //! them, for the diagnostic examples that fit the field alone.
 
-use evogs_cli::field::NeuralField;
-use evogs_cli::train::adam::{Adam, AdamState};
+use evogs::field::NeuralField;
+use evogs::train::adam::{Adam, AdamState};
 
 /// The field's two Adam groups and their base rates.
 pub(crate) struct FieldAdam {

@@ -9,7 +9,7 @@
 //! leave it behind, never the destination half-written.
 //!
 //! ```
-//! use evogs_cli::atomic::{AtomicFile, write_atomic};
+//! use evogs::atomic::{AtomicFile, write_atomic};
 //! use std::io::Write;
 //! let dir = std::env::temp_dir().join(format!("evogs-atomic-doc-{}", std::process::id()));
 //! std::fs::create_dir_all(&dir).unwrap();

@@ -10,12 +10,12 @@
 //! the ablation table of `docs/results.md` on the same scene (each technique's switch, velocity
 //! and deformation at equal settings).
 
-use evogs_cli::config::TrainConfig;
-use evogs_cli::eval::render_frame;
-use evogs_cli::field::HexPlaneConfig;
-use evogs_cli::model::{Motion, Waypoints};
-use evogs_cli::train::step::ViewData;
-use evogs_cli::train::trainer::Trainer;
+use evogs::config::TrainConfig;
+use evogs::eval::render_frame;
+use evogs::field::HexPlaneConfig;
+use evogs::model::{Motion, Waypoints};
+use evogs::train::step::ViewData;
+use evogs::train::trainer::Trainer;
 use evogs_math::{Par, Quat, Vec3};
 use evogs_ode::Method;
 use evogs_splat::metrics::mse;
