@@ -28,6 +28,7 @@ pub mod update;
 mod vec;
 
 pub mod interop;
+pub mod lie;
 #[cfg(feature = "proptest")]
 pub mod strategies;
 

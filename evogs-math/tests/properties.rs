@@ -86,13 +86,9 @@ proptest! {
     }
 
     #[test]
-    fn so3_group_axioms_hold(a in unit_quat(), b in unit_quat(), c in unit_quat(), v in vec3(3.0)) {
-        let (a, b, c) = (So3::from_unit_quat(a), So3::from_unit_quat(b), So3::from_unit_quat(c));
-        prop_assert!(((a * b) * c).angle_to(a * (b * c)) < 1e-14);
-        prop_assert!((a * So3::identity()).angle_to(a) < 1e-15);
-        prop_assert!((a * a.inverse()).angle_to(So3::identity()) < 1e-15);
-        prop_assert!((a.inverse() * a).angle_to(So3::identity()) < 1e-15);
-        prop_assert!(((a * b).act(v) - a.act(b.act(v))).norm() < 1e-14);
+    fn so3_matrix_acts_as_the_rotation(a in unit_quat(), v in vec3(3.0)) {
+        // The group axioms of So3 are in lie_axioms.rs; here its matrix form.
+        let a = So3::from_unit_quat(a);
         prop_assert!((a.matrix().mul_vec(v) - a.act(v)).norm() < 1e-14);
     }
 

@@ -1,5 +1,5 @@
 //! Property tests of SE(3) on the public strategies (rotation angles log-uniform from 1e-12,
-//! just below π, and beyond π where `Log` wraps): group axioms, exp/log round trips, the
+//! just below π, and beyond π where `Log` wraps): exp/log round trips through matrices, the
 //! Jacobian identities, the adjoints, and every VJP of `se3` and `se3_jacobians` by the
 //! dot-product test against forward-mode dual numbers.
 //!
@@ -47,18 +47,6 @@ fn write2(a: Vec6<f64>, b: Vec6<f64>, out: &mut [f64]) {
 }
 
 proptest! {
-    #[test]
-    fn se3_group_axioms_hold(a in se3(5.0), b in se3(5.0), c in se3(5.0)) {
-        // Distances are |Log(·)| of products, so they carry the rounding of the translations.
-        let s = 1.0 + a.translation().norm() + b.translation().norm() + c.translation().norm();
-        prop_assert!(dist((a * b) * c, a * (b * c)) < 1e-14 * s);
-        prop_assert!(a * Se3::identity() == a && Se3::identity() * a == a);
-        prop_assert!((a * a.inverse()).log().norm() < 1e-14 * s);
-        prop_assert!((a.inverse() * a).log().norm() < 1e-14 * s);
-        prop_assert!(dist(a.inverse().inverse(), a) < 1e-14 * s);
-        prop_assert!(dist((a * b).inverse(), b.inverse() * a.inverse()) < 1e-14 * s);
-    }
-
     #[test]
     fn exp_of_log_is_identity_on_transforms(x in se3(10.0)) {
         let back = Se3::exp(x.log());
@@ -127,23 +115,16 @@ proptest! {
     }
 
     #[test]
-    fn adjoint_conjugates_the_exponential(x in se3(5.0), xi in se3_tangent(3.0, 2.0)) {
-        // Exp(Ad(T) ξ) = T·Exp(ξ)·T⁻¹, and Ad(Exp ξ) fixes ξ (ad(ξ) ξ = 0).
-        let lhs = Se3::exp(x.adjoint_mul(xi));
-        let rhs = x * Se3::exp(xi) * x.inverse();
-        prop_assert!(dist(lhs, rhs) < 1e-12 * (1.0 + x.translation().norm()) * xi.norm().max(1.0));
-        prop_assert!((Se3::exp(xi).adjoint_mul(xi) - xi).norm() < 1e-13 * xi.norm().max(1.0));
+    fn ad_of_a_twist_annihilates_it(xi in se3_tangent(3.0, 2.0)) {
+        // Exp(Ad(T) ξ) = T·Exp(ξ)·T⁻¹ is in lie_axioms.rs; here ad(ξ) ξ = 0, in both forms.
         prop_assert!(ad_mul(xi, xi).norm() < 1e-14 * xi.norm().max(1.0).powi(2));
         prop_assert!((ad(xi).mul_vec(xi) - ad_mul(xi, xi)).norm() < 1e-14 * xi.norm().max(1.0).powi(2));
     }
 
     #[test]
-    fn action_is_consistent_with_composition_and_matrices(
-        a in se3(5.0), b in se3(5.0), p in vec3(4.0),
-    ) {
-        let s = 1.0 + p.norm() + a.translation().norm() + b.translation().norm();
-        prop_assert!(((a * b).act(p) - a.act(b.act(p))).norm() < 1e-13 * s);
-        prop_assert!((a.inverse().act(a.act(p)) - p).norm() < 1e-13 * s);
+    fn action_is_the_matrix_product(a in se3(5.0), p in vec3(4.0)) {
+        // Composition and inverses of the action are in lie_axioms.rs; here the matrix form.
+        let s = 1.0 + p.norm() + a.translation().norm();
         let m = a.to_matrix();
         let mp = Vec3::new(
             m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
