@@ -1,4 +1,4 @@
-//! Reads the same PLY files with evogs-cli's reader and with the PLY crates, and reports
+//! Reads the same PLY files with evogs's reader and with the PLY crates, and reports
 //! (1) what each does with hostile headers (in a child process, so an abort is seen) and
 //! (2) how long it takes to turn a 1M-vertex binary file and a 1M-row ASCII file into
 //! columns. `cargo run --release` from this folder.
@@ -8,8 +8,8 @@ use std::io::Cursor;
 use std::process::Command;
 use std::time::Instant;
 
-/// evogs-cli's reader, compiled here as it is in the crate.
-#[path = "../../../evogs-cli/src/data/ply.rs"]
+/// evogs's reader, compiled here as it is in the crate.
+#[path = "../../../evogs/src/data/ply.rs"]
 #[allow(dead_code, reason = "the writer is not compared")]
 mod ply;
 
@@ -233,7 +233,7 @@ fn serde_map(b: &[u8]) -> Result<Columns, String> {
 
 type Reader = fn(&[u8]) -> Result<Columns, String>;
 const READERS: [(&str, Reader, bool); 6] = [
-    ("evogs-cli ply.rs", evogs, true),
+    ("evogs ply.rs", evogs, true),
     ("ply-rs-bw 4.0.1 DefaultElement", bw_default, true),
     ("ply-rs-bw 4.0.1 typed row", bw_typed, false),
     ("ply-rs 0.1.3 DefaultElement", rs_default, true),
