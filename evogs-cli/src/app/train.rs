@@ -388,7 +388,7 @@ fn train_loop(t: &mut Trainer, run: &RunFolder, rep: &mut dyn Reporter) -> Comma
         );
         let every = t.cfg().schedule.checkpoint_every;
         let minutes = t.cfg().schedule.checkpoint_minutes;
-        if (every > 0 && t.iteration() % every == 0)
+        if (every > 0 && t.iteration().is_multiple_of(every))
             || (minutes > 0.0 && last_save.elapsed().as_secs_f64() >= 60.0 * minutes)
         {
             save_all(t, run)?;
