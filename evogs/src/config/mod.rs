@@ -561,10 +561,10 @@ mod tests {
                     _ => Vec::new(),
                 };
                 for c in candidates {
-                    if let Ok(cfg) = start.merge_value(overlay(path, c)) {
-                        if let Err(e) = cfg.validate() {
-                            messages.insert(e);
-                        }
+                    if let Ok(cfg) = start.merge_value(overlay(path, c))
+                        && let Err(e) = cfg.validate()
+                    {
+                        messages.insert(e);
                     }
                 }
             }
