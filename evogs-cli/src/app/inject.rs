@@ -176,10 +176,10 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
     let l = checkpoint::load_model(&run.checkpoint()).map_err(CommandError::new)?;
     let mut model = l.model;
     if model.motion != Motion::Velocity || !model.dynamics_active {
-        return Err(CommandError::new(format!(
-            "{}: injection needs a trained run with velocity motion",
-            run.checkpoint().display()
-        )));
+        return Err(CommandError::at(
+            &run.checkpoint(),
+            "injection needs a trained run with velocity motion",
+        ));
     }
     let dir = match &args.data {
         Some(d) => d.clone(),

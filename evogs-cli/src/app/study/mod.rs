@@ -244,11 +244,13 @@ fn state_of(run: &PlannedRun, force: bool) -> Result<RunState, CommandError> {
         return Ok(RunState::Fresh);
     }
     let other = |what: &str| {
-        CommandError::new(format!(
-            "{}: holds {what} of another configuration than this study's; pass --force to \
-             retrain it, or choose another --out",
-            run.args.out.display()
-        ))
+        CommandError::at(
+            &run.args.out,
+            format!(
+                "holds {what} of another configuration than this study's; pass --force to \
+                 retrain it, or choose another --out"
+            ),
+        )
     };
     let record = run.record_path();
     if record.is_file() {

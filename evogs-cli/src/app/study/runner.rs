@@ -75,10 +75,10 @@ impl PlannedRun {
 pub(super) fn read_record(path: &Path) -> Result<RunRecord, CommandError> {
     let text = std::fs::read_to_string(path).doing(path, "cannot read")?;
     serde_json::from_str(&text).map_err(|e| {
-        CommandError::new(format!(
-            "{}: not a study run record ({e}); delete it or pass --force",
-            path.display()
-        ))
+        CommandError::at(
+            path,
+            format!("not a study run record ({e}); delete it or pass --force"),
+        )
     })
 }
 
