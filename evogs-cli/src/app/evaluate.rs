@@ -44,10 +44,10 @@ pub fn evaluate_run(
     rep: &mut dyn Reporter,
 ) -> Result<(SplitMetrics, PathBuf), CommandError> {
     let folder = RunFolder::new(run);
-    let l = checkpoint::load_model(&folder.checkpoint()).map_err(CommandError::from_display)?;
+    let l = checkpoint::load_model(&folder.checkpoint()).map_err(CommandError::new)?;
     let dir = match data {
         Some(d) => d.to_path_buf(),
-        None => folder.data_dir().map_err(CommandError)?,
+        None => folder.data_dir().map_err(CommandError::new)?,
     };
     let mut cfg = l.cfg.clone();
     if let Some(f) = format {
@@ -57,7 +57,7 @@ pub fn evaluate_run(
     let ds = load_dataset(&dir, &cfg, false)?;
     let views = ds.split(split);
     if views.is_empty() {
-        return Err(CommandError(format!(
+        return Err(CommandError::new(format!(
             "{}: the dataset has no `{}` split",
             dir.display(),
             split.as_str()
@@ -71,7 +71,7 @@ pub fn evaluate_run(
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(x, y), v| {
                 (x.min(v.time), y.max(v.time))
             });
-        return Err(CommandError(format!(
+        return Err(CommandError::new(format!(
             "--time-range {a}:{b} selects none of the {} `{}` frames (their times lie in \
              [{lo}, {hi}])",
             views.len(),
@@ -90,7 +90,7 @@ pub fn evaluate_run(
         Par::best(),
         |d, _| rep.progress(d as u64, ""),
     )
-    .map_err(CommandError)?;
+    .map_err(CommandError::new)?;
     rep.finish();
     m.iterations = l.archive.meta["iteration"].as_u64().unwrap_or(0);
     m.train_seconds = l.archive.meta["train_seconds"].as_f64().unwrap_or(0.0);
@@ -103,6 +103,6 @@ pub fn evaluate_run(
     let path = folder.metrics(&name);
     let json = serde_json::to_string_pretty(&m).unwrap_or_default();
     evogs::atomic::write_atomic(&path, json.as_bytes())
-        .map_err(|e| CommandError(format!("{}: {e}", path.display())))?;
+        .map_err(|e| CommandError::new(format!("{}: {e}", path.display())))?;
     Ok((m, path))
 }

@@ -4,7 +4,7 @@
 //! little-endian floats; `f_rest` channel-major (all R, then G, then B); opacity as a logit,
 //! scales as logs, rotations as raw (w, x, y, z).
 
-use super::error::CommandError;
+use super::error::{CommandError, Context as _};
 use super::paths::RunFolder;
 use super::render::frame_time;
 use super::{Reporter, interrupt};
@@ -58,7 +58,7 @@ pub fn gaussians_table(s: &Splats<f32>) -> PlyTable {
 fn load(run: &Path) -> Result<Model<f32>, CommandError> {
     checkpoint::load_model(&RunFolder::new(run).checkpoint())
         .map(|l| l.model)
-        .map_err(CommandError::from_display)
+        .map_err(CommandError::new)
 }
 
 /// Runs `evogs export --time T`: the Gaussians at `t` into one `.ply`; returns their count.
@@ -69,13 +69,13 @@ pub fn export(run: &Path, t: f64, out: &Path) -> Result<usize, CommandError> {
     let mut model = load(run)?;
     model
         .check_time(t)
-        .map_err(|e| CommandError(format!("--time: {e}")))?;
+        .map_err(|e| CommandError::new(format!("--time: {e}")))?;
     let mut s = Splats::default();
     let mut stepper = None;
     let _tape = model.splats_at(t, &mut stepper, &mut s);
     gaussians_table(&s)
         .write_binary(out)
-        .map_err(|e| CommandError(format!("{}: cannot write: {e}", out.display())))?;
+        .doing(out, "cannot write")?;
     Ok(s.len())
 }
 
@@ -110,10 +110,9 @@ pub fn export_sequence(
     for t in [times.0, times.1] {
         model
             .check_time(t)
-            .map_err(|e| CommandError(format!("--times: {e}")))?;
+            .map_err(|e| CommandError::new(format!("--times: {e}")))?;
     }
-    std::fs::create_dir_all(out)
-        .map_err(|e| CommandError(format!("{}: cannot create: {e}", out.display())))?;
+    std::fs::create_dir_all(out).doing(out, "cannot create")?;
     let n = times.2;
     let mut seq = Sequence {
         files: Vec::with_capacity(n),
@@ -125,7 +124,7 @@ pub fn export_sequence(
     rep.start("export", n as u64);
     for i in 0..n {
         if interrupt::take() {
-            return Err(CommandError(format!(
+            return Err(CommandError::new(format!(
                 "interrupted: {i} of {n} files written to {}; no {SEQUENCE_FILE}",
                 out.display()
             )));
@@ -136,7 +135,7 @@ pub fn export_sequence(
         let path: PathBuf = out.join(&name);
         gaussians_table(&s)
             .write_binary(&path)
-            .map_err(|e| CommandError(format!("{}: cannot write: {e}", path.display())))?;
+            .doing(&path, "cannot write")?;
         seq.files.push(name);
         seq.times.push(t);
         rep.progress(i as u64 + 1, &format!("t = {t:.3}"));
@@ -144,6 +143,6 @@ pub fn export_sequence(
     rep.finish();
     let json = serde_json::to_string_pretty(&seq).unwrap_or_default();
     evogs::atomic::write_atomic_named(&out.join(SEQUENCE_FILE), json.as_bytes())
-        .map_err(CommandError)?;
+        .map_err(CommandError::new)?;
     Ok(seq)
 }

@@ -3,7 +3,7 @@
 //! atomically; an interrupt (SIGINT/SIGTERM) stops after the current frame, keeping the
 //! finished frames and leaving no partial GIF.
 
-use super::error::CommandError;
+use super::error::{CommandError, Context as _};
 use super::interrupt;
 use evogs::data::gif_writer::GifWriter;
 use evogs::data::image_io;
@@ -50,12 +50,11 @@ impl FrameWriter {
     /// # Errors
     /// The folder or the GIF's temporary file cannot be created.
     pub fn create(dir: &Path, gif_name: Option<&str>) -> Result<Self, CommandError> {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| CommandError(format!("{}: cannot create: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).doing(dir, "cannot create")?;
         let gif = match gif_name {
             Some(name) => {
                 let p = dir.join(name);
-                let g = GifWriter::create(&p, GIF_DELAY_MS).map_err(CommandError::from_display)?;
+                let g = GifWriter::create(&p, GIF_DELAY_MS).map_err(CommandError::new)?;
                 Some((g, p))
             }
             None => None,
@@ -76,7 +75,7 @@ impl FrameWriter {
         if !interrupt::take() {
             return Ok(());
         }
-        Err(CommandError(format!(
+        Err(CommandError::new(format!(
             "interrupted: {} of {total} frames written to {}{}",
             self.written,
             self.dir.display(),
@@ -94,9 +93,9 @@ impl FrameWriter {
     /// I/O or encoding failures, naming the file.
     pub fn push(&mut self, img: &Image<f32>) -> Result<(), CommandError> {
         let p = frame_path(&self.dir, self.written);
-        image_io::save_png(img, &p).map_err(CommandError::from_display)?;
+        image_io::save_png(img, &p).map_err(CommandError::new)?;
         if let Some((g, _)) = &mut self.gif {
-            g.push(img).map_err(CommandError::from_display)?;
+            g.push(img).map_err(CommandError::new)?;
         }
         self.written += 1;
         Ok(())
@@ -109,7 +108,7 @@ impl FrameWriter {
     pub fn finish(self) -> Result<FramesWritten, CommandError> {
         let gif = match self.gif {
             Some((g, p)) => {
-                g.finish().map_err(CommandError::from_display)?;
+                g.finish().map_err(CommandError::new)?;
                 Some(p)
             }
             None => None,

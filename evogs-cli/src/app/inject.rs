@@ -173,17 +173,17 @@ pub struct InjectArgs {
 /// A run without velocity motion, unreadable run or data, unwritable output.
 pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten, CommandError> {
     let run = RunFolder::new(&args.run);
-    let l = checkpoint::load_model(&run.checkpoint()).map_err(CommandError::from_display)?;
+    let l = checkpoint::load_model(&run.checkpoint()).map_err(CommandError::new)?;
     let mut model = l.model;
     if model.motion != Motion::Velocity || !model.dynamics_active {
-        return Err(CommandError(format!(
-            "{}: injection needs a trained run with velocity motion",
-            run.checkpoint().display()
-        )));
+        return Err(CommandError::at(
+            &run.checkpoint(),
+            "injection needs a trained run with velocity motion",
+        ));
     }
     let dir = match &args.data {
         Some(d) => d.clone(),
-        None => run.data_dir().map_err(CommandError)?,
+        None => run.data_dir().map_err(CommandError::new)?,
     };
     let mut cfg = l.cfg.clone();
     if let Some(f) = args.format {
@@ -191,8 +191,7 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
     }
     let ds = load_dataset(&dir, &cfg, false)?;
     let n = model.len();
-    let frame =
-        ParticleFrame::new(gaussian_layout(n), 0, Some(1)).map_err(CommandError::from_display)?;
+    let frame = ParticleFrame::new(gaussian_layout(n), 0, Some(1)).map_err(CommandError::new)?;
     let mask_center = match &args.mask {
         Mask::Sphere { center, .. } => *center,
         Mask::Box { min, max, .. } => (*min + *max) * 0.5,
@@ -202,7 +201,7 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
     for t in [a, b] {
         model
             .check_time(t)
-            .map_err(|e| CommandError(format!("--times: {e}")))?;
+            .map_err(|e| CommandError::new(format!("--times: {e}")))?;
     }
     let cams = path_cameras(&args.camera, &ds, &model, count)?;
     let mut out = FrameWriter::create(&args.out, args.gif.then_some("inject.gif"))?;

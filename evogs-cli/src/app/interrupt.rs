@@ -5,6 +5,7 @@
 //! The request is one process-wide flag, because signals are process-wide: the binary
 //! installs the handler ([`install`]); library users and tests may [`request`] a stop.
 
+use super::error::{CommandResult, Context as _};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 static REQUESTED: AtomicBool = AtomicBool::new(false);
@@ -13,7 +14,7 @@ static REQUESTED: AtomicBool = AtomicBool::new(false);
 ///
 /// # Errors
 /// The operating system refused the handler.
-pub fn install() -> Result<(), String> {
+pub fn install() -> CommandResult<()> {
     static INSTALLED: AtomicBool = AtomicBool::new(false);
     if INSTALLED.swap(true, Ordering::SeqCst) {
         return Ok(());
@@ -27,7 +28,7 @@ pub fn install() -> Result<(), String> {
             "\ninterrupt: stopping at the next safe point (training: after this iteration, with a checkpoint; rendering: after this frame); interrupt again to exit now"
         );
     })
-    .map_err(|e| format!("cannot install the interrupt handler: {e}"))
+    .context("cannot install the interrupt handler")
 }
 
 /// Asks long commands to stop at their next safe point (what a signal does).

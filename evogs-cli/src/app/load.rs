@@ -29,10 +29,9 @@ pub fn load_options(cfg: &TrainConfig, images: bool) -> LoadOptions {
 /// # Errors
 /// Any data problem, naming the file.
 pub fn load_dataset(dir: &Path, cfg: &TrainConfig, images: bool) -> Result<Dataset, CommandError> {
-    let mut ds =
-        Dataset::load(dir, &load_options(cfg, false)).map_err(CommandError::from_display)?;
+    let mut ds = Dataset::load(dir, &load_options(cfg, false)).map_err(CommandError::new)?;
     if images && ds.decoded_bytes() <= cfg.data.cache_bytes() {
-        ds.decode_images().map_err(CommandError::from_display)?;
+        ds.decode_images().map_err(CommandError::new)?;
     }
     Ok(ds)
 }

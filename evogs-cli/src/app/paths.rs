@@ -1,5 +1,6 @@
 //! Run-folder layout and the shipped scene.
 
+use super::error::{CommandResult, Context as _};
 use std::path::{Path, PathBuf};
 
 /// The files of a run folder.
@@ -72,7 +73,7 @@ impl RunFolder {
     ///
     /// # Errors
     /// A file that cannot be removed (named).
-    pub fn clear(&self) -> Result<(), String> {
+    pub fn clear(&self) -> CommandResult<()> {
         let Ok(entries) = std::fs::read_dir(&self.dir) else {
             return Ok(());
         };
@@ -96,7 +97,7 @@ impl RunFolder {
             } else {
                 Ok(())
             };
-            res.map_err(|err| format!("{}: cannot remove for --force: {err}", p.display()))?;
+            res.doing(&p, "cannot remove for --force")?;
         }
         Ok(())
     }
@@ -105,16 +106,12 @@ impl RunFolder {
     ///
     /// # Errors
     /// A missing or unreadable record.
-    pub fn data_dir(&self) -> Result<PathBuf, String> {
+    pub fn data_dir(&self) -> CommandResult<PathBuf> {
         let p = self.data_ref();
         std::fs::read_to_string(&p)
             .map(|s| PathBuf::from(s.trim()))
-            .map_err(|e| {
-                format!(
-                    "{}: cannot read the run's dataset path: {e} (pass --data)",
-                    p.display()
-                )
-            })
+            .map_err(|e| format!("{e} (pass --data)"))
+            .doing(&p, "cannot read the run's dataset path")
     }
 }
 

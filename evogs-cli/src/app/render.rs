@@ -3,7 +3,7 @@
 //! optional GIF.
 
 use super::Reporter;
-use super::error::CommandError;
+use super::error::{CommandError, CommandResult, Context as _};
 use super::frame_writer::{FrameWriter, FramesWritten};
 use super::load::load_dataset;
 use super::paths::RunFolder;
@@ -124,7 +124,7 @@ impl Orbit {
     ///
     /// # Errors
     /// No training views, or a degenerate training camera.
-    pub fn new(ds: &Dataset, center: Vec3<f64>, n: usize) -> Result<Self, String> {
+    pub fn new(ds: &Dataset, center: Vec3<f64>, n: usize) -> CommandResult<Self> {
         let up = world_up(ds);
         // A basis of the orbit's plane: x and y for the z-up D-NeRF world, else any
         // orthonormal pair perpendicular to up.
@@ -143,9 +143,13 @@ impl Orbit {
         let v0 = ds
             .train
             .first()
-            .ok_or("no training views to place the orbit")?;
-        let cams: Vec<PinholeCamera<f64>> =
-            ds.train.iter().map(view_camera).collect::<Result<_, _>>()?;
+            .ok_or_else(|| CommandError::new("no training views to place the orbit"))?;
+        let cams: Vec<PinholeCamera<f64>> = ds
+            .train
+            .iter()
+            .map(view_camera)
+            .collect::<Result<_, _>>()
+            .map_err(CommandError::new)?;
         #[allow(clippy::cast_precision_loss, reason = "view counts are small")]
         let m = cams.len() as f64;
         let radius = cams
@@ -176,7 +180,7 @@ impl Orbit {
     ///
     /// # Errors
     /// A degenerate pose.
-    pub fn camera(&self, i: usize) -> Result<PinholeCamera<f32>, String> {
+    pub fn camera(&self, i: usize) -> CommandResult<PinholeCamera<f32>> {
         #[allow(clippy::cast_precision_loss, reason = "an angle")]
         let a = std::f64::consts::TAU * (i % self.n) as f64 / self.n as f64;
         let eye = self.center
@@ -192,7 +196,7 @@ impl Orbit {
             self.height_px,
         )
         .map(|c: PinholeCamera<f64>| c.cast())
-        .map_err(|e| format!("orbit camera {i}: {e}"))
+        .context(format!("orbit camera {i}"))
     }
 }
 
@@ -212,7 +216,7 @@ impl FrameCameras {
     /// A degenerate orbit pose.
     pub fn get(&self, i: usize) -> Result<PinholeCamera<f32>, CommandError> {
         match self {
-            Self::Orbit(o) => o.camera(i).map_err(CommandError),
+            Self::Orbit(o) => o.camera(i),
             Self::Cycle(c) => Ok(c[i % c.len()]),
         }
     }
@@ -237,12 +241,14 @@ pub fn orbit_center(model: &Model<f32>, ds: &Dataset) -> Vec3<f64> {
 ///
 /// # Errors
 /// A dataset without a rig, or no camera of that name.
-fn rig_cameras(ds: &Dataset, name: Option<&str>) -> Result<Vec<PinholeCamera<f32>>, String> {
+fn rig_cameras(ds: &Dataset, name: Option<&str>) -> CommandResult<Vec<PinholeCamera<f32>>> {
     if ds.rig.is_empty() {
-        return Err(format!(
-            "{}: the dataset has no camera rig ({} layout); use --camera orbit or test",
-            ds.root.display(),
-            ds.format
+        return Err(CommandError::at(
+            &ds.root,
+            format!(
+                "the dataset has no camera rig ({} layout); use --camera orbit or test",
+                ds.format
+            ),
         ));
     }
     let picked: Vec<_> = ds
@@ -252,18 +258,20 @@ fn rig_cameras(ds: &Dataset, name: Option<&str>) -> Result<Vec<PinholeCamera<f32
         .collect();
     if picked.is_empty() {
         let names: Vec<&str> = ds.rig.iter().map(|c| c.name.as_str()).collect();
-        return Err(format!(
-            "{}: no rig camera `{}` (the rig has {})",
-            ds.root.display(),
-            name.unwrap_or_default(),
-            names.join(", ")
+        return Err(CommandError::at(
+            &ds.root,
+            format!(
+                "no rig camera `{}` (the rig has {})",
+                name.unwrap_or_default(),
+                names.join(", ")
+            ),
         ));
     }
     picked
         .into_iter()
         .map(|c| {
             PinholeCamera::from_dnerf(c.c2w, c.fov_x, c.width, c.height)
-                .map_err(|e| format!("{}: bad camera: {e}", c.name))
+                .context(format!("{}: bad camera", c.name))
         })
         .collect()
 }
@@ -282,17 +290,15 @@ pub fn path_cameras(
     count: usize,
 ) -> Result<FrameCameras, CommandError> {
     match path {
-        CameraPath::Orbit => Orbit::new(ds, orbit_center(model, ds), count)
-            .map(FrameCameras::Orbit)
-            .map_err(CommandError),
+        CameraPath::Orbit => {
+            Orbit::new(ds, orbit_center(model, ds), count).map(FrameCameras::Orbit)
+        }
         CameraPath::Rig | CameraPath::Camera(_) => {
             let name = match path {
                 CameraPath::Camera(n) => Some(n.as_str()),
                 _ => None,
             };
-            rig_cameras(ds, name)
-                .map(FrameCameras::Cycle)
-                .map_err(CommandError)
+            rig_cameras(ds, name).map(FrameCameras::Cycle)
         }
         CameraPath::Test => {
             let t: Vec<PinholeCamera<f32>> = ds
@@ -300,10 +306,10 @@ pub fn path_cameras(
                 .iter()
                 .map(view_camera)
                 .collect::<Result<_, _>>()
-                .map_err(CommandError)?;
+                .map_err(CommandError::new)?;
             if t.is_empty() {
-                return Err(CommandError(
-                    "the dataset has no test cameras (use --camera orbit)".into(),
+                return Err(CommandError::new(
+                    "the dataset has no test cameras (use --camera orbit)",
                 ));
             }
             Ok(FrameCameras::Cycle(t))
@@ -339,11 +345,10 @@ pub fn render_sequence(
         Some(x) => x,
         None => {
             let run = RunFolder::new(&args.run);
-            let l =
-                checkpoint::load_model(&run.checkpoint()).map_err(CommandError::from_display)?;
+            let l = checkpoint::load_model(&run.checkpoint()).map_err(CommandError::new)?;
             let dir = match &args.data {
                 Some(d) => d.clone(),
-                None => run.data_dir().map_err(CommandError)?,
+                None => run.data_dir().map_err(CommandError::new)?,
             };
             let mut cfg = l.cfg.clone();
             if let Some(f) = args.format {
@@ -359,7 +364,7 @@ pub fn render_sequence(
     for t in [a, b] {
         model
             .check_time(t)
-            .map_err(|e| CommandError(format!("--times: {e}")))?;
+            .map_err(|e| CommandError::new(format!("--times: {e}")))?;
     }
     let cams = path_cameras(&args.camera, ds, model, n)?;
     let mut out = FrameWriter::create(&args.out, args.gif.then_some("render.gif"))?;

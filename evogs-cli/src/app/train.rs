@@ -1,7 +1,8 @@
 //! `evogs train`: resolve the configuration, load the data, train with checkpoints and a
 //! log, then evaluate on the test split and render a GIF.
 
-use super::error::CommandError;
+pub use super::counts::positive_count;
+use super::error::{CommandError, CommandResult, Context as _};
 use super::load::load_dataset;
 use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
@@ -70,17 +71,6 @@ pub struct TrainArgs {
     pub skip_outputs: bool,
 }
 
-/// A command-line count: a whole number of at least 1 (`--iters`, `--seeds`, `--jobs`).
-///
-/// # Errors
-/// Anything else, quoted.
-pub fn positive_count(s: &str) -> Result<u64, String> {
-    match s.trim().parse::<u64>() {
-        Ok(n) if n >= 1 => Ok(n),
-        _ => Err(format!("`{s}` is not a whole number of at least 1")),
-    }
-}
-
 /// What a training run produced.
 #[derive(Clone, Debug)]
 pub struct TrainOutcome {
@@ -102,17 +92,13 @@ pub struct TrainOutcome {
 ///
 /// # Errors
 /// Unknown preset, unreadable or invalid file, invalid values.
-pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig, CommandError> {
+pub fn resolve_config(args: &TrainArgs) -> CommandResult<TrainConfig> {
     let mut cfg = TrainConfig::from_preset(args.preset.unwrap_or_default());
     if let Some(p) = &args.config {
-        let text = std::fs::read_to_string(p)
-            .map_err(|e| CommandError(format!("{}: cannot read: {e}", p.display())))?;
-        cfg = cfg
-            .merge_toml(&text)
-            .map_err(|e| CommandError(format!("{}: {e}", p.display())))?;
+        let text = std::fs::read_to_string(p).doing(p, "cannot read")?;
+        cfg = cfg.merge_toml(&text).at(p)?;
         // The file's values are checked as the file's, before the flags override them.
-        cfg.validate()
-            .map_err(|e| CommandError(format!("{}: {e}", p.display())))?;
+        cfg.validate().at(p)?;
     }
     if let Some(m) = args.motion {
         cfg.dynamics.motion = m;
@@ -140,7 +126,7 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig, CommandError> {
     if let Some(f) = args.format {
         cfg.data.format = f;
     }
-    cfg.validate().map_err(CommandError)?;
+    cfg.validate()?;
     Ok(cfg)
 }
 
@@ -189,7 +175,7 @@ fn init_note(ds: &Dataset, cfg: &TrainConfig) -> String {
     }
 }
 
-fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
+fn write_log(log: &[LogRow], path: &Path) -> CommandResult<()> {
     let mut s =
         String::from("iteration,seconds,loss,l1,psnr,ssim,regularizers,gaussians,lr_position\n");
     for r in log {
@@ -207,25 +193,19 @@ fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
             r.lr_position
         );
     }
-    evogs::atomic::write_atomic(path, s.as_bytes())
-        .map_err(|e| CommandError(format!("{}: cannot write the log: {e}", path.display())))
+    evogs::atomic::write_atomic(path, s.as_bytes()).doing(path, "cannot write the log")
 }
 
-fn save_all(t: &Trainer, run: &RunFolder) -> Result<(), CommandError> {
-    checkpoint::save(t, &run.checkpoint_to_write()).map_err(CommandError::from_display)?;
+fn save_all(t: &Trainer, run: &RunFolder) -> CommandResult<()> {
+    checkpoint::save(t, &run.checkpoint_to_write()).map_err(CommandError::new)?;
     // A resumed older run's `checkpoint.bin` is superseded by the file just written.
     let legacy = run.legacy_checkpoint();
     if legacy.is_file() {
-        std::fs::remove_file(&legacy).map_err(|e| {
-            CommandError(format!(
-                "{}: cannot remove the superseded checkpoint: {e}",
-                legacy.display()
-            ))
-        })?;
+        std::fs::remove_file(&legacy).doing(&legacy, "cannot remove the superseded checkpoint")?;
     }
     write_log(t.log(), &run.log())?;
     if t.log().len() >= 2 {
-        plot::save_curve(t.log(), &run.curve()).map_err(CommandError)?;
+        plot::save_curve(t.log(), &run.curve())?;
     }
     Ok(())
 }
@@ -255,37 +235,43 @@ fn iters_notes(asked: &ScheduleConfig, got: &ScheduleConfig) -> Vec<String> {
     out
 }
 
-/// Runs `evogs train`.
-///
-/// # Errors
-/// Data, configuration, checkpoint or numerical problems (a non-finite loss or gradient stops
-/// the run; the last checkpoint stays intact).
-pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, CommandError> {
+/// The run to train: its folder, whether it continues the folder's checkpoint, its
+/// configuration and its dataset folder.
+struct Plan {
+    run: RunFolder,
+    resuming: bool,
+    cfg: TrainConfig,
+    data_dir: PathBuf,
+}
+
+/// Checks the flags against the run folder (`--resume`, `--force`, a trained run already
+/// there) and resolves the configuration: the folder's own when resuming (with `--iters`
+/// and `--format` applied), else the preset, file and flags (with a note for each part of
+/// the schedule `--iters` shortened).
+fn plan_run(args: &TrainArgs, rep: &mut dyn Reporter) -> CommandResult<Plan> {
     let run = RunFolder::new(&args.out);
     let resuming = args.resume && run.checkpoint().is_file();
     if args.resume && !resuming {
-        return Err(CommandError(format!(
-            "{}: no checkpoint to resume from",
-            run.checkpoint().display()
-        )));
+        return Err(CommandError::at(
+            &run.checkpoint(),
+            "no checkpoint to resume from",
+        ));
     }
     if args.resume && args.force {
-        return Err(CommandError(
-            "--resume continues the run in the folder and --force replaces it: pass one".into(),
+        return Err(CommandError::new(
+            "--resume continues the run in the folder and --force replaces it: pass one",
         ));
     }
     if !args.resume && run.checkpoint().is_file() && !args.force {
-        return Err(CommandError(format!(
-            "{}: the folder holds a trained run (a checkpoint); pass --resume to continue \
-             it or --force to replace it",
-            run.dir.display()
-        )));
+        return Err(CommandError::at(
+            &run.dir,
+            "the folder holds a trained run (a checkpoint); pass --resume to continue it or \
+             --force to replace it",
+        ));
     }
     let mut cfg = if resuming {
-        let text = std::fs::read_to_string(run.config())
-            .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?;
-        TrainConfig::from_run_toml(&text)
-            .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?
+        let text = std::fs::read_to_string(run.config()).at(&run.config())?;
+        TrainConfig::from_run_toml(&text).at(&run.config())?
     } else {
         let cfg = resolve_config(args)?;
         if args.iters.is_some() {
@@ -299,63 +285,89 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         }
         cfg
     };
-    if let (true, Some(n)) = (resuming, args.iters) {
-        cfg.schedule.iterations = n;
-    }
-    if let (true, Some(f)) = (resuming, args.format) {
-        cfg.data.format = f;
+    if resuming {
+        if let Some(n) = args.iters {
+            cfg.schedule.iterations = n;
+        }
+        if let Some(f) = args.format {
+            cfg.data.format = f;
+        }
     }
     let data_dir = match (&args.data, resuming) {
         (Some(d), _) => d.clone(),
-        (None, true) => run.data_dir().map_err(CommandError)?,
+        (None, true) => run.data_dir()?,
         (None, false) => shipped_scene(),
     };
-    rep.info(&format!("data: {}", data_dir.display()));
-    let mut ds = load_dataset(&data_dir, &cfg, true)?;
-    let idx = supervised_indices(&ds.train, &cfg.data);
+    Ok(Plan {
+        run,
+        resuming,
+        cfg,
+        data_dir,
+    })
+}
+
+/// Prepares the run folder: with `--force` (not resuming) removes the old run's files, then
+/// creates the folder and records the configuration and the dataset folder.
+fn prepare_folder(args: &TrainArgs, plan: &Plan) -> CommandResult<()> {
+    let run = &plan.run;
+    if args.force && !args.resume {
+        run.clear()?;
+    }
+    std::fs::create_dir_all(&run.dir).doing(&run.dir, "cannot create the run folder")?;
+    evogs::atomic::write_atomic(&run.config(), plan.cfg.to_toml().as_bytes()).at(&run.config())?;
+    let abs = std::fs::canonicalize(&plan.data_dir).unwrap_or_else(|_| plan.data_dir.clone());
+    evogs::atomic::write_atomic(&run.data_ref(), abs.display().to_string().as_bytes())
+        .at(&run.data_ref())
+}
+
+/// Loads the dataset, takes the protocol's training views, prepares the run folder (only
+/// once the data is known to be good), and starts the trainer: continued from the folder's
+/// checkpoint, or new from the dataset's initial points (with a note saying where they come
+/// from).
+fn start(
+    args: &TrainArgs,
+    plan: &Plan,
+    rep: &mut dyn Reporter,
+) -> CommandResult<(Trainer, Dataset)> {
+    rep.info(&format!("data: {}", plan.data_dir.display()));
+    let mut ds = load_dataset(&plan.data_dir, &plan.cfg, true)?;
+    let idx = supervised_indices(&ds.train, &plan.cfg.data);
     // The loaded training images move into the training views.
-    let views =
-        training_frames(&mut ds.train, &idx, cfg.data.cache_bytes()).map_err(CommandError)?;
+    let views = training_frames(&mut ds.train, &idx, plan.cfg.data.cache_bytes())?;
     rep.info(&format!(
         "{} of {} training views supervised ({:?} protocol); {} layout, {}",
         views.len(),
         ds.train.len(),
-        cfg.data.protocol,
+        plan.cfg.data.protocol,
         ds.format,
-        frames_note(&ds, &cfg)
+        frames_note(&ds, &plan.cfg)
     ));
-    if args.force && !args.resume {
-        run.clear().map_err(CommandError)?;
-    }
-    std::fs::create_dir_all(&run.dir).map_err(|e| {
-        CommandError(format!(
-            "{}: cannot create the run folder: {e}",
-            run.dir.display()
-        ))
-    })?;
-    evogs::atomic::write_atomic(&run.config(), cfg.to_toml().as_bytes())
-        .map_err(|e| CommandError(format!("{}: {e}", run.config().display())))?;
-    let abs = std::fs::canonicalize(&data_dir).unwrap_or(data_dir.clone());
-    evogs::atomic::write_atomic(&run.data_ref(), abs.display().to_string().as_bytes())
-        .map_err(|e| CommandError(format!("{}: {e}", run.data_ref().display())))?;
-    let mut t = if resuming {
-        let t = checkpoint::resume(&run.checkpoint(), views).map_err(CommandError::from_display)?;
+    prepare_folder(args, plan)?;
+    let mut t = if plan.resuming {
+        let t = checkpoint::resume(&plan.run.checkpoint(), views).map_err(CommandError::new)?;
         rep.info(&format!("resuming at iteration {}", t.iteration()));
         t
     } else {
-        rep.info(&init_note(&ds, &cfg));
+        rep.info(&init_note(&ds, &plan.cfg));
         let pts = ds
             .points
             .as_ref()
             .map(|p| (p.positions.as_slice(), p.colors.as_deref()));
-        Trainer::new(cfg.clone(), views, pts).map_err(CommandError::from_display)?
+        Trainer::new(plan.cfg.clone(), views, pts).map_err(CommandError::new)?
     };
-    t.set_total_iterations(cfg.schedule.iterations);
+    t.set_total_iterations(plan.cfg.schedule.iterations);
+    Ok((t, ds))
+}
+
+/// Trains to the planned iteration count with progress, checkpoints on the schedule's
+/// iteration and minute intervals, and a checkpoint at the end. An interrupt stops after the
+/// current iteration with a checkpoint, as an error that says how to continue.
+fn train_loop(t: &mut Trainer, run: &RunFolder, rep: &mut dyn Reporter) -> CommandResult<()> {
     rep.start("train", t.cfg().schedule.iterations);
     rep.progress(t.iteration(), "");
     let mut last_save = std::time::Instant::now();
     while !t.finished() {
-        let r = t.step().map_err(CommandError::from_display)?;
+        let r = t.step().map_err(CommandError::new)?;
         if r.dynamics_started {
             rep.info(&format!(
                 "iteration {}: dynamics on ({:?} motion, {} Gaussians)",
@@ -376,17 +388,17 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         );
         let every = t.cfg().schedule.checkpoint_every;
         let minutes = t.cfg().schedule.checkpoint_minutes;
-        if (every > 0 && t.iteration() % every == 0)
+        if (every > 0 && t.iteration().is_multiple_of(every))
             || (minutes > 0.0 && last_save.elapsed().as_secs_f64() >= 60.0 * minutes)
         {
-            save_all(&t, &run)?;
+            save_all(t, run)?;
             last_save = std::time::Instant::now();
         }
         if interrupt::requested() && !t.finished() {
-            save_all(&t, &run)?;
+            save_all(t, run)?;
             rep.finish();
             interrupt::clear();
-            return Err(CommandError(format!(
+            return Err(CommandError::new(format!(
                 "interrupted at iteration {} of {}: checkpoint written to {}; continue with \
                  `evogs train --out {} --resume`",
                 t.iteration(),
@@ -396,19 +408,21 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             )));
         }
     }
-    save_all(&t, &run)?;
+    save_all(t, run)?;
     rep.finish();
-    let mut outcome = TrainOutcome {
-        run: run.clone(),
-        test: None,
-        gif: None,
-        iterations: t.iteration(),
-        seconds: t.train_seconds(),
-        gaussians: t.model().len(),
-    };
-    if args.skip_outputs {
-        return Ok(outcome);
-    }
+    Ok(())
+}
+
+/// The end of a run: the test metrics (RUN/metrics-test.json, if the dataset has a test
+/// split) and the orbit GIF (RUN/render/).
+fn finish(
+    t: &mut Trainer,
+    ds: &Dataset,
+    plan: Plan,
+    outcome: &mut TrainOutcome,
+    rep: &mut dyn Reporter,
+) -> CommandResult<()> {
+    let run = &plan.run;
     if !ds.test.is_empty() {
         rep.start("evaluate test", ds.test.len() as u64);
         let par = t.par();
@@ -417,17 +431,16 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
             &ds.test,
             SplitName::Test,
             None,
-            cfg.data.background,
+            plan.cfg.data.background,
             par,
             |d, _| rep.progress(d as u64, ""),
-        )
-        .map_err(CommandError)?;
+        )?;
         rep.finish();
         m.iterations = t.iteration();
         m.train_seconds = t.train_seconds();
         let json = serde_json::to_string_pretty(&m).unwrap_or_default();
         evogs::atomic::write_atomic(&run.metrics("test"), json.as_bytes())
-            .map_err(|e| CommandError(format!("{}: {e}", run.metrics("test").display())))?;
+            .at(&run.metrics("test"))?;
         outcome.test = Some(m);
     }
     let (t0, t1) = t.time_range();
@@ -437,10 +450,34 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
         times: (t0, t1, 40),
         camera: CameraPath::Orbit,
         gif: true,
-        data: Some(data_dir),
+        data: Some(plan.data_dir),
         format: Some(ds.format),
     };
-    outcome.gif = render_sequence(&rargs, Some((t.model_mut(), &ds)), rep)?.gif;
+    outcome.gif = render_sequence(&rargs, Some((t.model_mut(), ds)), rep)?.gif;
+    Ok(())
+}
+
+/// Runs `evogs train`: plan the run (flags, configuration), load the data and prepare the
+/// run folder, train, then finish with the test metrics and the GIF.
+///
+/// # Errors
+/// Data, configuration, checkpoint or numerical problems (a non-finite loss or gradient stops
+/// the run; the last checkpoint stays intact).
+pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> CommandResult<TrainOutcome> {
+    let plan = plan_run(args, rep)?;
+    let (mut t, ds) = start(args, &plan, rep)?;
+    train_loop(&mut t, &plan.run, rep)?;
+    let mut outcome = TrainOutcome {
+        run: plan.run.clone(),
+        test: None,
+        gif: None,
+        iterations: t.iteration(),
+        seconds: t.train_seconds(),
+        gaussians: t.model().len(),
+    };
+    if !args.skip_outputs {
+        finish(&mut t, &ds, plan, &mut outcome, rep)?;
+    }
     Ok(outcome)
 }
 

@@ -388,7 +388,8 @@ impl TrainConfig {
             && !(self.data.split_time > 0.0 && self.data.split_time < 1.0)
         {
             return Err(format!(
-                "data.split_time must lie in (0, 1) for the {} protocol (got {}): training                  times are in [0, 1]",
+                "data.split_time must lie in (0, 1) for the {} protocol (got {}): training \
+                 times are in [0, 1]",
                 if self.data.protocol == Protocol::Future {
                     "future"
                 } else {
@@ -405,7 +406,8 @@ impl TrainConfig {
         nonneg("init.aabb_margin", self.init.aabb_margin)?;
         if self.init.random_points == 0 {
             return Err(
-                "init.random_points must be at least 1 (the initial cloud when the dataset has                  no points3d.ply or init.use_points is false)"
+                "init.random_points must be at least 1 (the initial cloud when the dataset has \
+                 no points3d.ply or init.use_points is false)"
                     .into(),
             );
         }
@@ -453,7 +455,8 @@ impl TrainConfig {
         nonneg("densify.max_screen_size", d.max_screen_size)?;
         if !(0.0..1.0).contains(&d.min_opacity) {
             return Err(format!(
-                "densify.min_opacity must lie in [0, 1) (got {}): opacities are below 1, so                  a threshold of 1 or more prunes every Gaussian",
+                "densify.min_opacity must lie in [0, 1) (got {}): opacities are below 1, so \
+                 a threshold of 1 or more prunes every Gaussian",
                 d.min_opacity
             ));
         }
@@ -507,6 +510,82 @@ fn merge(base: &mut toml::Value, over: toml::Value) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every leaf of `v` (not tables) with its key path.
+    fn leaves(v: &toml::Value, path: &mut Vec<String>, out: &mut Vec<(Vec<String>, toml::Value)>) {
+        match v {
+            toml::Value::Table(t) => {
+                for (k, child) in t {
+                    path.push(k.clone());
+                    leaves(child, path, out);
+                    path.pop();
+                }
+            }
+            leaf => out.push((path.clone(), leaf.clone())),
+        }
+    }
+
+    /// `value` at `path` inside otherwise empty tables.
+    fn overlay(path: &[String], value: toml::Value) -> toml::Value {
+        path.iter().rev().fold(value, |inner, key| {
+            let mut t = toml::map::Map::new();
+            t.insert(key.clone(), inner);
+            toml::Value::Table(t)
+        })
+    }
+
+    #[test]
+    fn validation_messages_are_one_line_without_double_spaces() {
+        use toml::Value as V;
+        let base = TrainConfig::fast();
+        let mut all = Vec::new();
+        leaves(
+            &V::try_from(&base).expect("a table"),
+            &mut Vec::new(),
+            &mut all,
+        );
+        let mut messages = std::collections::BTreeSet::new();
+        for protocol in [Protocol::Full, Protocol::Future] {
+            let mut start = base.clone();
+            start.data.protocol = protocol;
+            for (path, leaf) in &all {
+                let candidates: Vec<V> = match leaf {
+                    V::Integer(_) => [0, 1, 65, 1 << 40].map(V::Integer).to_vec(),
+                    V::Float(_) => [-1.0, 0.0, 1.0, 2.0, 1e12, f64::NAN].map(V::Float).to_vec(),
+                    V::Array(_) => vec![
+                        V::Array(Vec::new()),
+                        V::Array(vec![V::Integer(0)]),
+                        V::Array(vec![V::Float(-1.0); 3]),
+                        V::Array(vec![V::String(String::new())]),
+                    ],
+                    _ => Vec::new(),
+                };
+                for c in candidates {
+                    if let Ok(cfg) = start.merge_value(overlay(path, c))
+                        && let Err(e) = cfg.validate()
+                    {
+                        messages.insert(e);
+                    }
+                }
+            }
+        }
+        assert!(messages.len() >= 20, "few checks reached: {messages:?}");
+        for key in [
+            "data.split_time",
+            "init.random_points",
+            "densify.min_opacity",
+            "loss.rigidity_samples",
+            "schedule.curriculum_iters",
+        ] {
+            assert!(
+                messages.iter().any(|m| m.starts_with(key)),
+                "no message for {key}: {messages:?}"
+            );
+        }
+        for m in &messages {
+            assert!(!m.contains("  ") && !m.contains('\n'), "`{m}`");
+        }
+    }
 
     #[test]
     fn toml_round_trip_and_partial_overlay() {

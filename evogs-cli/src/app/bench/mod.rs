@@ -22,6 +22,7 @@ pub use system::{cpu_model, current_rss_bytes, peak_rss_bytes, reset_peak_rss};
 pub use threads::Threads;
 
 use super::Reporter;
+use super::counts::{positive_count, positive_size, whole_count};
 use super::error::CommandError;
 use super::interrupt;
 use evogs::config::TrainConfig;
@@ -95,26 +96,42 @@ pub fn parse_bench_motions(s: &str) -> Result<Vec<Motion>, String> {
     Ok(motions)
 }
 
-/// The arguments of `evogs bench`.
-#[derive(Clone, Debug, PartialEq)]
+/// The arguments of `evogs bench`: the command line's flags (clap), each list parsed into
+/// its values when the line is read.
+#[derive(Clone, Debug, PartialEq, clap::Args)]
 pub struct BenchArgs {
     /// Gaussians in the scene.
+    #[arg(long, default_value_t = 20_000, allow_negative_numbers = true, value_parser = positive_size)]
     pub gaussians: usize,
-    /// Untimed iterations per configuration and pool.
+    /// Untimed iterations before the timed ones (per configuration and thread count).
+    #[arg(long, default_value_t = 2, allow_negative_numbers = true, value_parser = whole_count)]
     pub warmup: u64,
-    /// Timed iterations per configuration and pool (at least 1).
+    /// Timed iterations (per configuration and thread count).
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = positive_count)]
     pub iters: u64,
-    /// Motions, in row order.
-    pub motions: Vec<Motion>,
-    /// Field sizes, in row order.
-    pub sizes: Vec<FieldSize>,
-    /// Threads of the pool (`None`: rayon's default).
+    /// Motions, comma-separated: velocity, deformation.
+    #[arg(long, default_value = "velocity,deformation", value_parser = parse_bench_motions)]
+    pub motions: std::vec::Vec<Motion>,
+    /// Field sizes, comma-separated: paper (HexPlane 2 levels x 32 channels at 64^3 x 25,
+    /// MLP 64 wide), fast (2 levels x 16 channels at 32^3 x 16, MLP 32 wide).
+    #[arg(long, default_value = "paper,fast", value_parser = parse_sizes)]
+    pub sizes: std::vec::Vec<FieldSize>,
+    /// Threads of the pool (default: `RAYON_NUM_THREADS` or the logical CPUs).
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_size)]
     pub threads: Option<usize>,
-    /// Also run every configuration on one thread (when the pool has more).
+    /// Also run every configuration on one thread when the pool has more (for the speed-up
+    /// column); the flag `--no-single-thread` turns it off.
+    #[arg(
+        long = "no-single-thread",
+        action = clap::ArgAction::SetFalse,
+        help = "Skip the one-thread runs (no speed-up column)"
+    )]
     pub single_thread: bool,
-    /// Where to write the report as JSON.
+    /// Also write every figure to this JSON file.
+    #[arg(long)]
     pub json: Option<PathBuf>,
     /// Scene seed.
+    #[arg(long, default_value_t = 0)]
     pub seed: u64,
 }
 
@@ -161,11 +178,11 @@ fn run_pool(
     for i in 0..total {
         if interrupt::requested() {
             rep.finish();
-            return Err(CommandError("bench interrupted; nothing written".into()));
+            return Err(CommandError::new("bench interrupted; nothing written"));
         }
         let sample = threads
             .run(|| run.step())
-            .map_err(|e| CommandError(format!("{phase}: {e}")))?;
+            .map_err(|e| CommandError::new(format!("{phase}: {e}")))?;
         rep.progress(i + 1, &format!("{:.3} s", sample.seconds));
         if i >= args.warmup {
             gemm_flops = run.gemm_flops(&sample.field);
@@ -212,30 +229,30 @@ fn gemm_figures(p: &PoolRun) -> GemmFigures {
 /// interrupt, or the JSON file cannot be written.
 pub fn run_bench(args: &BenchArgs, rep: &mut dyn Reporter) -> Result<BenchReport, CommandError> {
     if args.gaussians == 0 || args.gaussians > MAX_GAUSSIANS {
-        return Err(CommandError(format!(
+        return Err(CommandError::new(format!(
             "--gaussians: {} is not between 1 and {MAX_GAUSSIANS}",
             args.gaussians
         )));
     }
     if args.iters == 0 {
-        return Err(CommandError("--iters: at least 1 timed iteration".into()));
+        return Err(CommandError::new("--iters: at least 1 timed iteration"));
     }
     if args.sizes.is_empty() || args.motions.is_empty() {
-        return Err(CommandError(
-            "the bench needs at least one size (--sizes) and one motion (--motions)".into(),
+        return Err(CommandError::new(
+            "the bench needs at least one size (--sizes) and one motion (--motions)",
         ));
     }
     if args.motions.contains(&Motion::Static) {
-        return Err(CommandError(
-            "--motions: static motion has no field to time".into(),
+        return Err(CommandError::new(
+            "--motions: static motion has no field to time",
         ));
     }
     if args.threads == Some(0) {
-        return Err(CommandError("--threads: at least 1".into()));
+        return Err(CommandError::new("--threads: at least 1"));
     }
-    let pool = Threads::new(args.threads).map_err(|e| CommandError(format!("--threads: {e}")))?;
+    let pool = Threads::new(args.threads).map_err(|e| e.context("--threads"))?;
     let single = if args.single_thread && pool.count() > 1 {
-        Some(Threads::new(Some(1)).map_err(CommandError)?)
+        Some(Threads::new(Some(1))?)
     } else {
         None
     };
@@ -245,7 +262,7 @@ pub fn run_bench(args: &BenchArgs, rep: &mut dyn Reporter) -> Result<BenchReport
         pool.count()
     ));
     let scene = BenchScene::new(args.gaussians, args.seed)
-        .map_err(|e| CommandError(format!("bench camera: {e}")))?;
+        .map_err(|e| CommandError::new(format!("bench camera: {e}")))?;
     let mut peak_rss_reset = true;
     let mut rows = Vec::new();
     for &size in &args.sizes {
@@ -324,8 +341,8 @@ pub fn run_bench(args: &BenchArgs, rep: &mut dyn Reporter) -> Result<BenchReport
         rows,
     };
     if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&report).map_err(CommandError::from_display)?;
-        evogs::atomic::write_atomic_named(path, text.as_bytes()).map_err(CommandError)?;
+        let text = serde_json::to_string_pretty(&report).map_err(CommandError::new)?;
+        evogs::atomic::write_atomic_named(path, text.as_bytes()).map_err(CommandError::new)?;
     }
     Ok(report)
 }

@@ -2,6 +2,10 @@
 //! (every parallel loop of the step, given `Par::Rayon`, then runs on that pool). Without
 //! the `rayon` feature there is one thread.
 
+use crate::app::error::CommandResult;
+#[cfg(feature = "rayon")]
+use crate::app::error::Context as _;
+
 /// A pool of worker threads (one thread without the `rayon` feature).
 #[derive(Debug)]
 pub struct Threads {
@@ -15,7 +19,7 @@ impl Threads {
     ///
     /// # Errors
     /// The pool cannot be started.
-    pub fn new(count: Option<usize>) -> Result<Self, String> {
+    pub fn new(count: Option<usize>) -> CommandResult<Self> {
         #[cfg(feature = "rayon")]
         {
             let mut b = rayon::ThreadPoolBuilder::new();
@@ -25,7 +29,7 @@ impl Threads {
             let pool = b
                 .thread_name(|i| format!("evogs-bench-{i}"))
                 .build()
-                .map_err(|e| format!("cannot start a pool of threads: {e}"))?;
+                .context("cannot start a pool of threads")?;
             Ok(Self { pool })
         }
         #[cfg(not(feature = "rayon"))]

@@ -24,7 +24,8 @@ pub use protocol::{HeldOutSet, StudyProtocol};
 pub use report::{Cell, CostRow, Provenance, Row, RunRecord, SetMetrics, Stat, StudySummary};
 
 use super::Reporter;
-use super::error::CommandError;
+use super::counts::{positive_count, positive_size};
+use super::error::{CommandError, Context as _};
 use super::load::load_dataset;
 use super::paths::{RunFolder, shipped_scene};
 use super::plot::{BarGroup, save_bars};
@@ -37,30 +38,44 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 
-/// The arguments of `evogs study`.
-#[derive(Clone, Debug, PartialEq)]
+/// The arguments of `evogs study`: the command line's flags (clap), each list parsed into
+/// its values when the line is read.
+#[derive(Clone, Debug, PartialEq, clap::Args)]
 pub struct StudyArgs {
-    /// Dataset folder (default: the shipped scene).
+    /// Dataset folder (default: data/toys-mini shipped with evogs).
+    #[arg(long)]
     pub data: Option<PathBuf>,
-    /// Study folder.
+    /// Study folder (runs in OUT/runs/, the summary in OUT/study.*).
+    #[arg(long, default_value = "runs/study")]
     pub out: PathBuf,
-    /// Protocols, in table order.
-    pub protocols: Vec<StudyProtocol>,
-    /// Motions, in column order.
-    pub motions: Vec<Motion>,
-    /// Preset (`fast` by default).
+    /// Protocols, comma-separated: full, sparse:K (K >= 2), future:TAU, backward:TAU
+    /// (0 < TAU < 1).
+    #[arg(long, default_value = "full,sparse:4,future:0.75", value_parser = StudyProtocol::parse_list)]
+    pub protocols: std::vec::Vec<StudyProtocol>,
+    /// Motions, comma-separated: velocity, deformation, static.
+    #[arg(long, default_value = "velocity,deformation,static", value_parser = parse_motions)]
+    pub motions: std::vec::Vec<Motion>,
+    /// Preset of every run: fast (default) or paper.
+    #[arg(long)]
     pub preset: Option<Preset>,
-    /// Configuration file overlaid on the preset.
+    /// TOML file overlaid on the preset for every run.
+    #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Iterations per run (default: the preset's).
+    /// Iterations per run (default: the preset's; shortens warm-up and curriculum to fit).
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_count)]
     pub iters: Option<u64>,
-    /// Repeats per (protocol, motion), with seeds `seed`, `seed + 1`, ...
+    /// Repeats per protocol and motion, with seeds seed, seed+1, ...; the table reports
+    /// mean and standard deviation.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = positive_size)]
     pub seeds: usize,
-    /// Runs at once (the threads are divided among them).
+    /// Runs at once; the threads are divided among them.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = positive_size)]
     pub jobs: usize,
-    /// Retrain finished and interrupted runs.
+    /// Retrain every run, finished or interrupted.
+    #[arg(long)]
     pub force: bool,
-    /// The command line, recorded in `study.json`.
+    /// The command line, recorded in `study.json` (set by the caller, not a flag).
+    #[arg(skip)]
     pub command: String,
 }
 
@@ -156,10 +171,9 @@ fn total_threads() -> usize {
 /// Checks that `dir` can be created and written, leaving nothing behind.
 fn check_writable(dir: &Path) -> Result<(), CommandError> {
     let fail = |e: std::io::Error| {
-        CommandError(format!(
-            "{}: the study folder cannot be written: {e}",
-            dir.display()
-        ))
+        CommandError::new(e)
+            .context("the study folder cannot be written")
+            .context(dir.display())
     };
     std::fs::create_dir_all(dir).map_err(fail)?;
     let probe = dir.join(format!(".evogs-write-check-{}", std::process::id()));
@@ -202,8 +216,8 @@ fn plan(
                 targs.protocol = Some(probe.protocol);
                 targs.stride = Some(probe.stride);
                 targs.split_time = Some(probe.split_time);
-                let cfg =
-                    resolve_config(&targs).map_err(|e| CommandError(format!("{folder}: {e}")))?;
+                let cfg = resolve_config(&targs)
+                    .map_err(|e| CommandError::new(format!("{folder}: {e}")))?;
                 let hash = config_hash(&cfg.to_toml());
                 let mut run = PlannedRun {
                     protocol: p,
@@ -230,11 +244,13 @@ fn state_of(run: &PlannedRun, force: bool) -> Result<RunState, CommandError> {
         return Ok(RunState::Fresh);
     }
     let other = |what: &str| {
-        CommandError(format!(
-            "{}: holds {what} of another configuration than this study's; pass --force to \
-             retrain it, or choose another --out",
-            run.args.out.display()
-        ))
+        CommandError::at(
+            &run.args.out,
+            format!(
+                "holds {what} of another configuration than this study's; pass --force to \
+                 retrain it, or choose another --out"
+            ),
+        )
     };
     let record = run.record_path();
     if record.is_file() {
@@ -261,15 +277,15 @@ fn state_of(run: &PlannedRun, force: bool) -> Result<RunState, CommandError> {
 /// failed (finished runs stay reusable).
 pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcome, CommandError> {
     if args.protocols.is_empty() || args.motions.is_empty() {
-        return Err(CommandError(
-            "a study needs at least one protocol and one motion".into(),
+        return Err(CommandError::new(
+            "a study needs at least one protocol and one motion",
         ));
     }
     if args.seeds == 0 {
-        return Err(CommandError("--seeds must be at least 1".into()));
+        return Err(CommandError::new("--seeds must be at least 1"));
     }
     if args.jobs == 0 {
-        return Err(CommandError("--jobs must be at least 1".into()));
+        return Err(CommandError::new("--jobs must be at least 1"));
     }
     let base = resolve_config(&TrainArgs {
         config: args.config.clone(),
@@ -284,19 +300,14 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         .protocols
         .iter()
         .map(|p| p.held_out_sets(&ds))
-        .collect::<Result<_, _>>()
-        .map_err(CommandError)?;
+        .collect::<Result<_, _>>()?;
     check_writable(&args.out)?;
     let runs = plan(args, &data, &base)?;
     if args.force {
         for r in &runs {
             if r.args.out.exists() {
-                std::fs::remove_dir_all(&r.args.out).map_err(|e| {
-                    CommandError(format!(
-                        "{}: cannot clear for --force: {e}",
-                        r.args.out.display()
-                    ))
-                })?;
+                std::fs::remove_dir_all(&r.args.out)
+                    .doing(&r.args.out, "cannot clear for --force")?;
             }
         }
     }
@@ -360,7 +371,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
     let markdown = args.out.join("study.md");
     let chart = args.out.join("study.png");
     let text = serde_json::to_string_pretty(&summary)
-        .map_err(|e| CommandError(format!("cannot encode the study: {e}")))?;
+        .map_err(|e| CommandError::new(format!("cannot encode the study: {e}")))?;
     write_atomic(&json, text.as_bytes())?;
     write_atomic(&markdown, summary.markdown().as_bytes())?;
     write_chart(&summary, &chart)?;
@@ -461,7 +472,7 @@ fn write_chart(s: &StudySummary, path: &Path) -> Result<(), CommandError> {
         &groups,
         path,
     )
-    .map_err(CommandError)
+    .map_err(CommandError::new)
 }
 
 #[cfg(test)]

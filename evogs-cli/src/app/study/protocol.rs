@@ -8,6 +8,7 @@
 //! | `future:TAU` | training views with `t ≤ TAU` | test `t ≤ TAU` (interpolation); test `t > TAU` (extrapolation); the `future` split if the dataset has one |
 //! | `backward:TAU` | training views with `t ≥ TAU` | test `t ≥ TAU` (interpolation); test `t < TAU` (extrapolation); the `future` split if any |
 
+use crate::app::error::{CommandError, CommandResult};
 use evogs::config::{DataConfig, Protocol};
 use evogs::data::{Dataset, SplitName, View};
 use evogs::train::views::supervised_indices;
@@ -85,11 +86,11 @@ impl StudyProtocol {
     /// A protocol that leaves nothing to train on or nothing held out that it is meant to
     /// measure: no test views, no training view inside the protocol's range, or no test view
     /// beyond `TAU`.
-    pub fn held_out_sets(self, ds: &Dataset) -> Result<Vec<HeldOutSet>, String> {
-        let root = ds.root.display();
+    pub fn held_out_sets(self, ds: &Dataset) -> CommandResult<Vec<HeldOutSet>> {
+        let root = |cause: String| CommandError::at(&ds.root, cause);
         if ds.test.is_empty() {
-            return Err(format!(
-                "{root}: the dataset has no test views, so there is nothing to evaluate"
+            return Err(root(
+                "the dataset has no test views, so there is nothing to evaluate".to_string(),
             ));
         }
         let mut cfg = DataConfig {
@@ -101,9 +102,9 @@ impl StudyProtocol {
         self.apply(&mut cfg);
         let supervised = supervised_indices(&ds.train, &cfg);
         if supervised.is_empty() {
-            return Err(format!(
-                "{root}: protocol `{self}` leaves no training view to train on"
-            ));
+            return Err(root(format!(
+                "protocol `{self}` leaves no training view to train on"
+            )));
         }
         let test = |keep: &dyn Fn(f64) -> bool| -> Vec<usize> {
             (0..ds.test.len())
@@ -119,10 +120,10 @@ impl StudyProtocol {
                     .filter(|i| supervised.binary_search(i).is_err())
                     .collect();
                 if dropped.is_empty() {
-                    return Err(format!(
-                        "{root}: protocol `{self}` drops no training time (the training views \
+                    return Err(root(format!(
+                        "protocol `{self}` drops no training time (the training views \
                          have fewer than 2 distinct times per stride of {k})"
-                    ));
+                    )));
                 }
                 sets.push(HeldOutSet::new(
                     "train views at dropped times",
@@ -133,11 +134,11 @@ impl StudyProtocol {
             Self::Future(tau) => {
                 let beyond = test(&|t| t > tau + TIME_EPS);
                 if beyond.is_empty() && ds.future.is_empty() {
-                    return Err(format!(
-                        "{root}: protocol `{self}` needs test views with t > {tau} (or a \
+                    return Err(root(format!(
+                        "protocol `{self}` needs test views with t > {tau} (or a \
                          future split); the test times lie in {}",
                         time_span(&ds.test)
-                    ));
+                    )));
                 }
                 sets.push(HeldOutSet::new(
                     &format!("test t <= {tau}"),
@@ -153,11 +154,11 @@ impl StudyProtocol {
             Self::Backward(tau) => {
                 let before = test(&|t| t < tau - TIME_EPS);
                 if before.is_empty() {
-                    return Err(format!(
-                        "{root}: protocol `{self}` needs test views with t < {tau}; the test \
+                    return Err(root(format!(
+                        "protocol `{self}` needs test views with t < {tau}; the test \
                          times lie in {}",
                         time_span(&ds.test)
-                    ));
+                    )));
                 }
                 sets.push(HeldOutSet::new(
                     &format!("test t >= {tau}"),
@@ -423,15 +424,20 @@ mod tests {
     fn a_protocol_without_frames_to_measure_is_an_error() {
         let e = StudyProtocol::Future(0.97)
             .held_out_sets(&dataset(&[]))
-            .expect_err("no test beyond 0.97");
+            .expect_err("no test beyond 0.97")
+            .to_string();
         assert!(e.contains("t > 0.97"), "{e}");
         let e = StudyProtocol::Backward(0.05)
             .held_out_sets(&dataset(&[]))
-            .expect_err("no test before 0.05");
+            .expect_err("no test before 0.05")
+            .to_string();
         assert!(e.contains("t < 0.05"), "{e}");
         let mut ds = dataset(&[]);
         ds.test.clear();
-        let e = StudyProtocol::Full.held_out_sets(&ds).expect_err("no test");
+        let e = StudyProtocol::Full
+            .held_out_sets(&ds)
+            .expect_err("no test")
+            .to_string();
         assert!(e.contains("no test views"), "{e}");
         let e = StudyProtocol::Sparse(20)
             .held_out_sets(&dataset(&[]))

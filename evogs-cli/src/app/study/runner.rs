@@ -4,7 +4,7 @@
 use super::protocol::{HeldOutSet, StudyProtocol};
 use super::report::{RunRecord, SetMetrics};
 use crate::app::Reporter;
-use crate::app::error::CommandError;
+use crate::app::error::{CommandError, Context as _};
 use crate::app::paths::RunFolder;
 use crate::app::train::{TrainArgs, train};
 use evogs::data::Dataset;
@@ -73,13 +73,12 @@ impl PlannedRun {
 /// # Errors
 /// An unreadable or malformed file (named).
 pub(super) fn read_record(path: &Path) -> Result<RunRecord, CommandError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| CommandError(format!("{}: cannot read: {e}", path.display())))?;
+    let text = std::fs::read_to_string(path).doing(path, "cannot read")?;
     serde_json::from_str(&text).map_err(|e| {
-        CommandError(format!(
-            "{}: not a study run record ({e}); delete it or pass --force",
-            path.display()
-        ))
+        CommandError::at(
+            path,
+            format!("not a study run record ({e}); delete it or pass --force"),
+        )
     })
 }
 
@@ -88,7 +87,7 @@ pub(super) fn read_record(path: &Path) -> Result<RunRecord, CommandError> {
 /// # Errors
 /// I/O failures, naming the file.
 pub(super) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CommandError> {
-    evogs::atomic::write_atomic_named(path, bytes).map_err(CommandError)
+    evogs::atomic::write_atomic_named(path, bytes).map_err(CommandError::new)
 }
 
 /// Trains (or resumes) the run, evaluates its held-out sets and writes its record.
@@ -111,7 +110,7 @@ pub(super) fn execute(
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
-            .map_err(|e| CommandError(format!("cannot start {threads} threads: {e}")))?;
+            .map_err(|e| CommandError::new(format!("cannot start {threads} threads: {e}")))?;
         pool.install(|| execute_here(run, ds, sets, threads, rep))
     }
     #[cfg(not(feature = "rayon"))]
@@ -130,11 +129,11 @@ fn execute_here(
 ) -> Result<RunRecord, CommandError> {
     let mut args = run.args.clone();
     args.resume = run.state == RunState::Resume;
-    let at = |e: CommandError| CommandError(format!("{} ({}): {e}", run.folder, run.label()));
+    let at = |e: CommandError| CommandError::new(format!("{} ({}): {e}", run.folder, run.label()));
     let outcome = train(&args, rep).map_err(at)?;
     let folder = RunFolder::new(&args.out);
-    let loaded = checkpoint::load_model(&folder.checkpoint())
-        .map_err(|e| at(CommandError::from_display(e)))?;
+    let loaded =
+        checkpoint::load_model(&folder.checkpoint()).map_err(|e| at(CommandError::new(e)))?;
     let mut model = loaded.model;
     model.field.set_par(Par::best());
     let mut metrics = Vec::with_capacity(sets.len());
@@ -149,7 +148,7 @@ fn execute_here(
             Par::best(),
             |d, _| rep.progress(d as u64, ""),
         )
-        .map_err(|e| at(CommandError(e)))?;
+        .map_err(|e| at(CommandError::new(e)))?;
         rep.finish();
         metrics.push(SetMetrics {
             set: set.name.clone(),
@@ -171,8 +170,11 @@ fn execute_here(
         threads,
         sets: metrics,
     };
-    let json = serde_json::to_string_pretty(&record)
-        .map_err(|e| at(CommandError(format!("cannot encode the run record: {e}"))))?;
+    let json = serde_json::to_string_pretty(&record).map_err(|e| {
+        at(CommandError::new(format!(
+            "cannot encode the run record: {e}"
+        )))
+    })?;
     write_atomic(&run.record_path(), json.as_bytes()).map_err(at)?;
     Ok(record)
 }
