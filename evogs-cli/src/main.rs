@@ -182,6 +182,9 @@ enum Cmd {
         #[arg(long, default_value_t = 0)]
         seed: u64,
     },
+    /// Show a run in the browser: a local server on 127.0.0.1 computes the Gaussians at
+    /// each time the page asks for (prints the address), or --export writes a static page.
+    View(evogs_cli::app::view::ViewArgs),
     /// Export the Gaussians at time T as a standard 3DGS .ply, or a sequence of them at
     /// times A:B:N (a folder of .ply files and sequence.json).
     Export {
@@ -531,6 +534,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             (None, None) => anyhow::bail!("export needs --time T or --times A:B:N"),
         },
+        Cmd::View(args) => evogs_cli::app::view::view(&args, &mut term)?,
         Cmd::CheckOrder { stepper, problem } => {
             let results = check_order(stepper, problem.as_deref())?;
             for r in &results {
