@@ -17,8 +17,11 @@ mod common;
 
 use evogs::eval::render_frame;
 use evogs::run::checkpoint;
+use evogs_cli::app::Silent;
 use evogs_cli::app::paths::{RunFolder, shipped_scene};
 use evogs_cli::app::view::Viewer;
+use evogs_cli::app::view::scene::SceneInfo;
+use evogs_cli::app::view::wire::{FRAME_BYTES_PER_GAUSSIAN, HEADER_BYTES};
 use evogs_math::Par;
 use evogs_splat::{Image, PinholeCamera, Splats};
 use serde_json::{Value, json};
@@ -241,7 +244,7 @@ impl Devtools {
             let p = &e["params"];
             match e["method"].as_str().unwrap_or_default() {
                 "Runtime.exceptionThrown" => {
-                    v.push(format!("exception: {}", p["exceptionDetails"]))
+                    v.push(format!("exception: {}", p["exceptionDetails"]));
                 }
                 "Runtime.consoleAPICalled" if p["type"] == "error" => {
                     v.push(format!("console error: {}", p["args"]));
@@ -519,4 +522,58 @@ fn the_page_shows_the_run_at_any_time_as_the_rasterizer_does() {
     if std::env::var_os("EVOGS_KEEP_VIEWER_TEST").is_none() {
         std::fs::remove_dir_all(&dir).ok();
     }
+}
+
+#[test]
+fn an_export_holds_the_page_and_every_frame_it_lists() {
+    let dir = common::scratch("viewer-export");
+    let run = common::tiny_run(&dir);
+    let out = dir.join("site");
+    let viewer = Viewer::open(&run, Some(&shipped_scene())).expect("open the run");
+    let n = viewer.scene.gaussians;
+    let reach = viewer.scene.reach;
+    let written = viewer
+        .export(&out, (2.0, -1.0, 4), &mut Silent)
+        .expect("export");
+    assert_eq!(written, 4);
+    for f in [
+        "index.html",
+        "viewer.js",
+        "static.bin",
+        "vendor/spark/spark.module.min.js",
+        "vendor/three/LICENSE",
+    ] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    let scene: SceneInfo =
+        serde_json::from_slice(&std::fs::read(out.join("scene.json")).expect("scene.json"))
+            .expect("scene.json parses");
+    let frames = scene.frames.expect("an export lists its frames");
+    assert_eq!(frames.times, [-1.0, 0.0, 1.0, 2.0], "increasing times");
+    let mut model = checkpoint::load_model(&RunFolder::new(&run).checkpoint())
+        .expect("model")
+        .model;
+    let mut s = Splats::default();
+    for (t, f) in frames.times.iter().zip(&frames.files) {
+        let b = std::fs::read(out.join(f)).expect("frame file");
+        assert_eq!(b.len(), HEADER_BYTES + FRAME_BYTES_PER_GAUSSIAN * n, "{f}");
+        let tf = f64::from_le_bytes(b[8..16].try_into().expect("time"));
+        assert!((tf - t).abs() < 1e-12, "{f}: {tf} != {t}");
+        let _tape = model.splats_at(*t, &mut None, &mut s);
+        let x0 = f32::from_le_bytes(b[16..20].try_into().expect("x"));
+        assert!(
+            (x0 - s.means[0].x).abs() < 1e-6,
+            "{f}: the model's position"
+        );
+    }
+
+    let bad = reach[0] - 1.0;
+    let viewer = Viewer::open(&run, Some(&shipped_scene())).expect("open the run");
+    let e = viewer
+        .export(&dir.join("bad"), (bad, 0.0, 2), &mut Silent)
+        .expect_err("out of reach")
+        .to_string();
+    let expected = model.check_time(bad).expect_err("out of reach");
+    assert_eq!(e, format!("--times: {expected}"));
+    std::fs::remove_dir_all(&dir).ok();
 }

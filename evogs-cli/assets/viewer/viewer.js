@@ -97,13 +97,17 @@ async function main() {
   world.add(mesh);
 
   let fovX = 0.8;
+  let camAspect = 1;
   function resize() {
     const w = window.innerWidth;
     const h = window.innerHeight;
     renderer.setSize(w, h, false);
     camera.aspect = w / h;
-    // The horizontal field of view of the dataset camera is kept at any window shape.
-    camera.fov = THREE.MathUtils.radToDeg(2 * Math.atan(Math.tan(fovX / 2) / camera.aspect));
+    // The dataset camera's whole view fits the window: its horizontal field of view in a
+    // narrower window, its vertical one in a wider window.
+    const tanX = Math.tan(fovX / 2);
+    const tanY = Math.max(tanX / camera.aspect, tanX / camAspect);
+    camera.fov = THREE.MathUtils.radToDeg(2 * Math.atan(tanY));
     camera.updateProjectionMatrix();
   }
   window.addEventListener("resize", resize);
@@ -114,6 +118,7 @@ async function main() {
     const m = new THREE.Matrix4().set(...c.c2w.flat());
     m.decompose(camera.position, camera.quaternion, new THREE.Vector3());
     fovX = c.fov_x;
+    camAspect = c.width / c.height;
     // Orbit around the point of the view axis nearest the scene's centre.
     const fwd = new THREE.Vector3(0, 0, -1).applyQuaternion(camera.quaternion);
     const centre = new THREE.Vector3(...scene.center);
@@ -254,9 +259,10 @@ async function main() {
   const span = Math.abs(b - a) || 1;
   let last = performance.now();
   renderer.setAnimationLoop((now) => {
-    const dt = Math.min(0.1, (now - last) / 1000);
+    const dt = Math.min(0.25, (now - last) / 1000);
     last = now;
-    if (playing && !loading) {
+    // Time runs on while a frame is computed; the page then asks for the latest time.
+    if (playing) {
       let t = (wanted ?? a) + (Number(el("speed").value) * span * dt) / 5;
       if (t > Math.max(lo, hi)) t = Math.min(lo, hi);
       request(t);
