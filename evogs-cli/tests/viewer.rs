@@ -20,6 +20,7 @@ use evogs::run::checkpoint;
 use evogs_cli::app::Silent;
 use evogs_cli::app::paths::{RunFolder, shipped_scene};
 use evogs_cli::app::view::Viewer;
+use evogs_cli::app::view::frames::FrameSource;
 use evogs_cli::app::view::scene::SceneInfo;
 use evogs_cli::app::view::wire::{FRAME_BYTES_PER_GAUSSIAN, HEADER_BYTES};
 use evogs_math::Par;
@@ -566,6 +567,23 @@ fn an_export_holds_the_page_and_every_frame_it_lists() {
             "{f}: the model's position"
         );
     }
+
+    // The cache: a time asked again is not computed again, the least recently used goes
+    // first, and a cached frame is the computed one.
+    let fresh = checkpoint::load_model(&RunFolder::new(&run).checkpoint())
+        .expect("model")
+        .model;
+    let mut src = FrameSource::new(fresh, 2);
+    let first = src.frame(0.25).expect("in reach").to_vec();
+    src.frame(0.5).expect("in reach");
+    assert_eq!(src.frame(0.25).expect("cached"), first.as_slice());
+    assert_eq!(src.computed(), 2, "0.25 came from the cache");
+    src.frame(0.75).expect("in reach");
+    src.frame(0.25).expect("still cached");
+    assert_eq!(src.computed(), 3, "0.5 was the least recently used");
+    src.frame(0.5).expect("in reach");
+    assert_eq!(src.computed(), 4, "0.5 was evicted");
+    assert!(src.frame(reach[1] * 2.0).is_err());
 
     let bad = reach[0] - 1.0;
     let viewer = Viewer::open(&run, Some(&shipped_scene())).expect("open the run");
