@@ -436,7 +436,7 @@ fn the_page_shows_the_run_at_any_time_as_the_rasterizer_does() {
         .spawn()
         .expect("start evogs view");
     let server_log = stderr_lines(&mut server);
-    let _server = Reaped(server);
+    let server = Reaped(server);
     let url = wait_line(&server_log, "evogs view: ", "evogs view");
     let url = url
         .split_whitespace()
@@ -445,7 +445,7 @@ fn the_page_shows_the_run_at_any_time_as_the_rasterizer_does() {
         .to_string();
     assert!(url.starts_with("http://127.0.0.1:"), "{url}");
 
-    let (_browser, mut dt) = start_chromium(&chromium, &dir.join("profile"));
+    let (browser, mut dt) = start_chromium(&chromium, &dir.join("profile"));
     let mut shots = Vec::new();
     for (t, r) in times.iter().zip(&refs) {
         let state = dt.open(&format!("{url}?t={t}&camera=0&ui=0"));
@@ -520,6 +520,7 @@ fn the_page_shows_the_run_at_any_time_as_the_rasterizer_does() {
         problems.iter().all(|p| p.contains("422")),
         "only the refused frame fails: {problems:?}"
     );
+    drop((dt, browser, server));
     if std::env::var_os("EVOGS_KEEP_VIEWER_TEST").is_none() {
         std::fs::remove_dir_all(&dir).ok();
     }
