@@ -57,6 +57,9 @@ pub(crate) enum Cmd {
     /// seconds per iteration, a breakdown by phase, peak memory, the GFLOP/s of the field's
     /// matrix products and the speed-up over one thread (docs/performance.md).
     Bench(BenchArgs),
+    /// Show a run in the browser: a local server on 127.0.0.1 computes the Gaussians at
+    /// each time the page asks for (prints the address), or --export writes a static page.
+    View(evogs_cli::app::view::ViewArgs),
     /// Export the Gaussians at time T as a standard 3DGS .ply, or a sequence of them at
     /// times A:B:N (a folder of .ply files and sequence.json).
     Export(ExportCmd),

@@ -92,6 +92,7 @@ fn run(cli: Cli) -> CommandResult<Verdict> {
                 return Err(CommandError::new("export needs --time T or --times A:B:N"));
             }
         },
+        Cmd::View(args) => evogs_cli::app::view::view(&args, &mut term)?,
         Cmd::CheckOrder(c) => {
             let results =
                 check_order(c.stepper, c.problem.as_deref()).map_err(CommandError::new)?;

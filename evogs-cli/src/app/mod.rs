@@ -16,6 +16,7 @@ pub mod plot;
 pub mod render;
 pub mod study;
 pub mod train;
+pub mod view;
 
 /// Receives progress and messages from long-running commands.
 pub trait Reporter {
