@@ -7,7 +7,6 @@ pub mod frames;
 pub mod neighbours;
 pub mod optim;
 pub mod render_pass;
-pub mod rigidity;
 pub mod step;
 pub mod trainer;
 pub mod views;

@@ -7,12 +7,9 @@
 //! are static (plain 3DGS); then the dynamics are switched on and the anchors are
 //! initialised by integrating the field from the canonical state.
 
-use super::coherence::COHERENCE_K;
 use super::densify::{DensifyReport, DensifyStats, densify_and_prune, reset_opacity};
 use super::frames::TrainViews;
-use super::neighbours::local_clusters;
 use super::optim::{LearningRates, Optimizer, StateGroups};
-use super::rigidity::{RigidityGraph, RigidityWeights, even_spacing};
 use super::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats,
     batch_loss_and_grad, render_options,
@@ -453,53 +450,19 @@ impl Trainer {
             && m > 1
         {
             let means = &self.model.canonical.means;
-            let picks = if l.coherence_local {
-                local_clusters(means, m, COHERENCE_K + 1, &mut self.rng)
-            } else {
-                // Sample without replacement (partial Fisher–Yates on a scratch index list).
-                let mut idx: Vec<usize> = (0..n).collect();
-                for i in 0..m {
-                    let j = i + self.rng.below(n - i);
-                    idx.swap(i, j);
-                }
-                idx.truncate(m);
-                idx
-            };
+            // Sample without replacement (partial Fisher–Yates on a scratch index list).
+            let mut picks: Vec<usize> = (0..n).collect();
+            for i in 0..m {
+                let j = i + self.rng.below(n - i);
+                picks.swap(i, j);
+            }
+            picks.truncate(m);
             picks
                 .iter()
                 .map(|&i| means[i].cast::<f64>().to_array())
                 .collect()
         } else {
             Vec::new()
-        };
-        let rigidity = RigidityWeights {
-            rigidity: l.lambda_rigidity,
-            rotation: l.lambda_rotation,
-            isometry: l.lambda_isometry,
-        };
-        let (rigidity_sample, rigidity_graph) = if rigidity.any()
-            && self.model.dynamics_active
-            && self.model.motion != Motion::Static
-            && n > 1
-        {
-            // Local clusters, so that the neighbours within the sample are neighbours in the
-            // cloud.
-            let means = &self.model.canonical.means;
-            let picks = local_clusters(
-                means,
-                l.rigidity_samples.min(n),
-                COHERENCE_K + 1,
-                &mut self.rng,
-            );
-            let positions: Vec<[f64; 3]> = picks
-                .iter()
-                .map(|&i| means[i].cast::<f64>().to_array())
-                .collect();
-            let (lo, hi) = self.model.field.hexplane().aabb();
-            let graph = RigidityGraph::new(&positions, COHERENCE_K, even_spacing(lo, hi, n));
-            (picks, graph)
-        } else {
-            (Vec::new(), RigidityGraph::default())
         };
         StepSettings {
             lambda_ssim: l.lambda_ssim,
@@ -512,9 +475,6 @@ impl Trainer {
             lambda_anchor: l.lambda_anchor,
             anchor_segment,
             coherence_points,
-            rigidity,
-            rigidity_sample,
-            rigidity_graph,
         }
     }
 
@@ -618,14 +578,6 @@ impl Trainer {
         let lr = LearningRates::at(&self.cfg.optim, self.extent, it - paused, dyn_start);
         self.optim.step(&mut self.model, &grad, &lr);
         self.grad = Some(grad);
-        let s = &self.cfg.schedule;
-        if self.model.dynamics_active
-            && self.model.waypoints == Waypoints::Snapshot
-            && s.snapshot_every > 0
-            && it.is_multiple_of(s.snapshot_every)
-        {
-            self.model.refresh_anchors_from_start(&mut self.ws.stepper);
-        }
         if it >= d.from_iter && it < d.until_iter && it.is_multiple_of(d.interval) {
             let prune_big = d.opacity_reset_interval > 0 && it > d.opacity_reset_interval;
             let d = d.clone();
@@ -655,7 +607,7 @@ impl Trainer {
                 l1: losses.l1,
                 psnr: psnr_of_mse(losses.mse),
                 ssim: losses.ssim,
-                regularizers: losses.planes + losses.coherence + losses.anchor + losses.rigidity,
+                regularizers: losses.planes + losses.coherence + losses.anchor,
                 gaussians: self.model.len(),
                 lr_position: lr.position,
             });

@@ -13,7 +13,6 @@ use evogs::field::{FieldProfile, FieldTimes, NeuralField, TimeMapping};
 use evogs::model::{Model, ModelGrad, Motion, Waypoints};
 use evogs::train::densify::DensifyStats;
 use evogs::train::optim::{LearningRates, Optimizer};
-use evogs::train::rigidity::{RigidityGraph, RigidityWeights};
 use evogs::train::step::{
     StepSettings, StepWorkspace, ViewData, accumulate_screen_stats, batch_loss_and_grad,
     render_options,
@@ -117,9 +116,6 @@ impl BenchRun {
             lambda_anchor: 0.0,
             anchor_segment: None,
             coherence_points: Vec::new(),
-            rigidity: RigidityWeights::default(),
-            rigidity_sample: Vec::new(),
-            rigidity_graph: RigidityGraph::default(),
         };
         let opts = render_options(cfg.data.background, SH_DEGREE, Par::best());
         Self {
