@@ -213,16 +213,6 @@ fn write_log(log: &[LogRow], path: &Path) -> Result<(), CommandError> {
 
 fn save_all(t: &Trainer, run: &RunFolder) -> Result<(), CommandError> {
     checkpoint::save(t, &run.checkpoint_to_write()).map_err(CommandError::from_display)?;
-    // A resumed older run's `checkpoint.bin` is superseded by the file just written.
-    let legacy = run.legacy_checkpoint();
-    if legacy.is_file() {
-        std::fs::remove_file(&legacy).map_err(|e| {
-            CommandError(format!(
-                "{}: cannot remove the superseded checkpoint: {e}",
-                legacy.display()
-            ))
-        })?;
-    }
     write_log(t.log(), &run.log())?;
     if t.log().len() >= 2 {
         plot::save_curve(t.log(), &run.curve()).map_err(CommandError)?;
@@ -374,9 +364,8 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> Result<TrainOutcome, C
                 t.model().len()
             ),
         );
-        let every = t.cfg().schedule.checkpoint_every;
         let minutes = t.cfg().schedule.checkpoint_minutes;
-        if (every > 0 && t.iteration() % every == 0)
+        if t.schedule().checkpoint_due(t.iteration())
             || (minutes > 0.0 && last_save.elapsed().as_secs_f64() >= 60.0 * minutes)
         {
             save_all(&t, &run)?;
