@@ -246,7 +246,7 @@ mod tests {
         assert!((s.window_end(1) - 0.4).abs() < 1e-12, "warm-up window");
         assert!((s.window_end(10) - 0.4).abs() < 1e-12, "still the warm-up");
         assert!(
-            (s.window_end(30) - (0.4 + 0.8 * 1.6)).abs() < 1e-12,
+            (s.window_end(30) - 2.0 * (0.2 + 0.8 * 0.5)).abs() < 1e-12,
             "half way"
         );
         assert!(
