@@ -1,7 +1,7 @@
 //! Checkpoints are plain safetensors files: written by a training run here, read back with the
 //! `safetensors` crate alone (not evogs' reader), with the names, dtypes, shapes, values and
-//! metadata the trainer holds. Runs of the first format (`checkpoint.bin`) still load,
-//! resume bit for bit, and are replaced by `checkpoint.safetensors` at their next save.
+//! metadata the trainer holds; a checkpoint whose metadata misses a field or has a wrong one
+//! is refused with a message naming the file and the field.
 
 use evogs::config::TrainConfig;
 use evogs::data::{Dataset, LoadOptions};
@@ -11,13 +11,10 @@ use evogs::run::checkpoint;
 use evogs::train::step::ViewData;
 use evogs::train::trainer::Trainer;
 use evogs::train::views::training_views;
-use evogs_cli::app::Silent;
-use evogs_cli::app::paths::{RunFolder, shipped_scene};
-use evogs_cli::app::train::{TrainArgs, train};
+use evogs_cli::app::paths::shipped_scene;
 use safetensors::{Dtype, SafeTensors};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
-use std::path::Path;
 
 mod common;
 
@@ -104,7 +101,7 @@ fn expected(t: &Trainer) -> BTreeMap<String, (Dtype, Vec<u8>)> {
         );
     }
     f("field", m.field.params().to_vec());
-    let o = &t.optimizer();
+    let o = &t.state().optim;
     let mut groups = vec![
         ("canonical.means", &o.canonical.means),
         ("canonical.log_scales", &o.canonical.log_scales),
@@ -133,19 +130,25 @@ fn expected(t: &Trainer) -> BTreeMap<String, (Dtype, Vec<u8>)> {
         f(&format!("adam.{name}.m"), s.m.clone());
         f(&format!("adam.{name}.v"), s.v.clone());
     }
-    f("stats.accum", t.densify_stats().accum.clone());
+    f("stats.accum", t.state().stats.accum.clone());
     let steps: Vec<u64> = groups.iter().map(|(_, s)| s.step).collect();
     e.insert("adam.steps".into(), (Dtype::U64, le_u64(&steps)));
     let widen = |v: &[u32]| v.iter().map(|&x| u64::from(x)).collect::<Vec<_>>();
     e.insert(
         "stats.count".into(),
-        (Dtype::U64, le_u64(&widen(&t.densify_stats().count))),
+        (Dtype::U64, le_u64(&widen(&t.state().stats.count))),
     );
     e.insert(
         "stats.max_radius".into(),
-        (Dtype::U64, le_u64(&widen(&t.densify_stats().max_radius))),
+        (Dtype::U64, le_u64(&widen(&t.state().stats.max_radius))),
     );
-    let order: Vec<u64> = t.view_order().iter().map(|&v| v as u64).collect();
+    let order: Vec<u64> = t
+        .state()
+        .sampler
+        .order()
+        .iter()
+        .map(|&v| v as u64)
+        .collect();
     e.insert("order".into(), (Dtype::U64, le_u64(&order)));
     e
 }
@@ -203,7 +206,7 @@ fn a_checkpoint_is_a_plain_safetensors_file() {
     assert_eq!(meta["config"], json!(t.cfg().to_toml()), "configuration");
     assert_eq!(
         meta["rng_state"],
-        json!(t.rng_state().to_string()),
+        json!(t.state().rng.state().to_string()),
         "random state"
     );
     assert_eq!(
@@ -212,120 +215,47 @@ fn a_checkpoint_is_a_plain_safetensors_file() {
         "log rows"
     );
     assert!(
-        entry["meta_f64_bits"]
-            .as_array()
-            .is_some_and(|b| b.iter().any(|x| x.as_u64() == Some(t.extent().to_bits()))),
-        "the float bits hold the extent exactly"
+        meta["extent"]
+            .as_f64()
+            .is_some_and(|x| x.to_bits() == t.state().extent.to_bits()),
+        "the extent exactly, as plain JSON"
     );
+    assert!(entry.get("meta_f64_bits").is_none(), "no float bits");
     std::fs::remove_dir_all(dir).ok();
 }
 
-/// Converts a safetensors checkpoint into the first format (`EVOGSCK1`), as the old writer
-/// laid it out: magic, header length, JSON header, arrays in header order.
-fn to_first_format(st_bytes: &[u8]) -> Vec<u8> {
-    let st = SafeTensors::deserialize(st_bytes).expect("safetensors");
-    let entry = metadata_entry(st_bytes);
-    let mut names = st.names();
-    names.sort_unstable();
-    let mut arrays = Vec::new();
-    let mut data = Vec::new();
-    for name in names {
-        let v = st.tensor(name).expect("tensor");
-        let kind = match v.dtype() {
-            Dtype::F32 => "f32",
-            Dtype::U64 => "u64",
-            other => panic!("unexpected dtype {other:?}"),
-        };
-        arrays.push(json!({"name": name, "kind": kind, "len": v.shape()[0]}));
-        data.extend_from_slice(v.data());
-    }
-    let header = json!({
-        "meta": entry["meta"],
-        "arrays": arrays,
-        "meta_f64_bits": entry["meta_f64_bits"],
-    })
-    .to_string();
-    let mut out = b"EVOGSCK1".to_vec();
-    out.extend_from_slice(&(header.len() as u64).to_le_bytes());
-    out.extend_from_slice(header.as_bytes());
-    out.extend_from_slice(&data);
-    out
-}
-
+/// A checkpoint whose metadata lacks a field, or holds one of the wrong type, is refused
+/// with a message that names the file and the field.
 #[test]
-fn a_first_format_checkpoint_resumes_bit_for_bit() {
-    let c = tiny_config();
-    let (mut a, views) = trainer(&c);
-    let dir = common::scratch("ckpt-legacy");
-    let st = dir.join("new.safetensors");
-    let old = dir.join("checkpoint.bin");
-    while !a.finished() {
-        a.step().expect("step");
-        if a.iteration() == 9 {
-            checkpoint::save(&a, &st).expect("save");
-            let bytes = std::fs::read(&st).expect("read");
-            std::fs::write(&old, to_first_format(&bytes)).expect("write the old format");
-        }
+fn a_missing_or_wrong_metadata_field_is_named() {
+    let (mut t, views) = trainer(&tiny_config());
+    t.step().expect("step");
+    let dir = common::scratch("ckpt-meta");
+    let ck = dir.join("checkpoint.safetensors");
+    checkpoint::save(&t, &ck).expect("save");
+    let good = evogs::run::archive::Archive::read(&ck).expect("archive");
+    type Edit = fn(&mut Value);
+    let edits: [(&str, Edit); 3] = [
+        ("iteration", |m| {
+            m.as_object_mut().expect("object").remove("iteration");
+        }),
+        ("extent", |m| m["extent"] = json!("far")),
+        ("time_range", |m| m["time_range"] = json!([0.0])),
+    ];
+    for (field, edit) in edits {
+        let mut ar = good.clone();
+        edit(&mut ar.meta);
+        ar.write(&ck).expect("write");
+        let e = checkpoint::load_model(&ck)
+            .expect_err("refused")
+            .to_string();
+        assert!(
+            e.contains(&ck.display().to_string()) && e.contains(field),
+            "the file and `{field}` named: {e}"
+        );
     }
-    let mut b = checkpoint::resume(&old, views).expect("resume from checkpoint.bin");
-    assert_eq!(b.iteration(), 9, "resumed iteration");
-    while !b.finished() {
-        b.step().expect("step");
-    }
-    assert_eq!(
-        a.model().canonical,
-        b.model().canonical,
-        "canonical identical"
-    );
-    assert_eq!(a.model().anchors, b.model().anchors, "anchors identical");
-    assert!(
-        a.model().field.params() == b.model().field.params(),
-        "field identical"
-    );
-    assert_eq!(a.optimizer(), b.optimizer(), "optimiser identical");
+    good.write(&ck).expect("write");
+    let back = checkpoint::resume(&ck, views).expect("the untouched checkpoint resumes");
+    assert_eq!(back.iteration(), 1, "resumed");
     std::fs::remove_dir_all(dir).ok();
-}
-
-/// Export of an older run reads its `checkpoint.bin`; resuming it writes
-/// `checkpoint.safetensors` and removes the superseded file.
-#[test]
-fn an_older_run_folder_is_read_and_converted() {
-    let dir = common::scratch("ckpt-folder");
-    let run = common::tiny_run(&dir);
-    let folder = RunFolder::new(&run);
-    let new = folder.checkpoint_to_write();
-    let old = folder.legacy_checkpoint();
-    assert_eq!(folder.checkpoint(), new, "a new run's checkpoint");
-    let bytes = std::fs::read(&new).expect("checkpoint");
-    std::fs::write(&old, to_first_format(&bytes)).expect("old format");
-    std::fs::remove_file(&new).expect("remove");
-    assert_eq!(folder.checkpoint(), old, "only the old file: it is read");
-    let ply = dir.join("x.ply");
-    let n = evogs_cli::app::export::export(&run, 0.5, &ply).expect("export an older run");
-    assert!(n > 0 && ply.is_file(), "exported {n} Gaussians");
-    let before = model(&old);
-    train(
-        &TrainArgs {
-            data: Some(shipped_scene()),
-            out: run.clone(),
-            resume: true,
-            skip_outputs: true,
-            ..TrainArgs::default()
-        },
-        &mut Silent,
-    )
-    .expect("resume an older run");
-    assert!(new.is_file() && !old.exists(), "converted");
-    assert_eq!(model(&new), before, "the same model");
-    std::fs::remove_dir_all(dir).ok();
-}
-
-fn model(p: &Path) -> String {
-    let l = checkpoint::load_model(p).expect("load");
-    format!(
-        "{:?} {:?} {:?}",
-        l.model.canonical,
-        l.model.anchors,
-        l.model.field.params()
-    )
 }

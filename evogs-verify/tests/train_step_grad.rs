@@ -1,6 +1,6 @@
 //! One full training step's gradient (photometric L1 + D-SSIM through render(integrate(field)),
-//! plane regularisers, velocity coherence (its twist form with the twist velocity), the
-//! anchor loss and the neighbour rigidity priors) against central differences of
+//! plane regularisers, velocity coherence (its twist form with the twist velocity) and the
+//! anchor loss) against central differences of
 //! the same step's loss, in f64, for every parameter group (sampled entries), in velocity and
 //! deformation motion, and on a batch of two views. The scene and the per-group check live in
 //! `evogs_verify::check::grad` (shared with `evogs check-grad` and the cross-crate tests).
@@ -21,9 +21,7 @@ fn check(motion: Motion, seed: u64, groups: usize) {
 
 fn assert_rows(motion: Motion, (losses, rows): (StepLosses, Vec<GradRow>), groups: usize) {
     assert!(
-        losses.planes > 0.0
-            && losses.rigidity > 0.0
-            && (motion != Motion::Velocity || losses.coherence > 0.0),
+        losses.planes > 0.0 && (motion != Motion::Velocity || losses.coherence > 0.0),
         "every term is active: {losses:?}"
     );
     if motion == Motion::Velocity {
@@ -63,8 +61,7 @@ fn two_view_batch_gradient_matches_central_differences() {
     assert_rows(Motion::Velocity, batch_training_step_rows(11, SAMPLES), 9);
 }
 
-/// A batch's loss and gradient are the mean of its views' own terms (photometric and rigidity
-/// priors) plus the regularisers once (at the first view's time), not the mean of two whole
+/// A batch's loss and gradient are the mean of its views' own photometric terms plus the regularisers once (at the first view's time), not the mean of two whole
 /// steps.
 #[test]
 fn a_batch_averages_the_photometric_terms_and_counts_the_regularisers_once() {
@@ -84,10 +81,6 @@ fn a_batch_averages_the_photometric_terms_and_counts_the_regularisers_once() {
     let (l_p2, g_p2) = batch_step_loss_and_grad(m, &[&second], &photo_only);
     let regs = l_one.planes + l_one.coherence + l_one.anchor;
     assert!(regs > 0.0 && l_p1.planes == 0.0 && l_p1.anchor == 0.0);
-    assert!(
-        l_p1.rigidity > 0.0 && l_p2.rigidity > 0.0,
-        "per-view rigidity priors"
-    );
     assert!(
         (l_batch.planes - l_one.planes).abs() <= 1e-15
             && (l_batch.coherence - l_one.coherence).abs() <= 1e-15

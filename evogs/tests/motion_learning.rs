@@ -252,14 +252,11 @@ fn ablations_of_the_motion_learning_techniques() {
     let (_, psnr_static) = train(Motion::Static, &train_views, &held_out);
     println!("static: held-out PSNR {psnr_static:.2} dB");
     type Tweak = fn(&mut TrainConfig);
-    let variants: [(&str, Tweak); 12] = [
+    let variants: [(&str, Tweak); 8] = [
         ("defaults", |_| {}),
         ("waypoints off, steps of 1/2", |c| {
             c.dynamics.waypoints = Waypoints::Off;
             c.dynamics.step_fraction = 0.5;
-        }),
-        ("snapshot waypoints", |c| {
-            c.dynamics.waypoints = Waypoints::Snapshot;
         }),
         ("anchor loss every 2 steps, weight 10", |c| {
             c.loss.anchor_every = 2;
@@ -278,15 +275,6 @@ fn ablations_of_the_motion_learning_techniques() {
         }),
         ("velocity coherence 0.01", |c| {
             c.loss.lambda_coherence = 0.01;
-        }),
-        ("rigidity 0.3, rotation 0.01", |c| {
-            c.loss.lambda_rigidity = 0.3;
-            c.loss.lambda_rotation = 0.01;
-        }),
-        ("isometry 0.3", |c| c.loss.lambda_isometry = 0.3),
-        ("rigidity 3, rotation 0.1", |c| {
-            c.loss.lambda_rigidity = 3.0;
-            c.loss.lambda_rotation = 0.1;
         }),
         ("field learning rates x3", |c| {
             c.optim.grid_lr_init *= 3.0;

@@ -23,29 +23,16 @@ impl RunFolder {
     pub fn config(&self) -> PathBuf {
         self.dir.join("config.toml")
     }
-    /// The checkpoint to read: `checkpoint.safetensors`, or the first format's
-    /// `checkpoint.bin` of an older run when only that one is there (its path is returned
-    /// whether or not the file exists, so errors name the file expected).
+    /// The checkpoint to read: `checkpoint.safetensors` (its path is returned whether or not
+    /// the file exists, so errors name the file expected).
     #[must_use]
     pub fn checkpoint(&self) -> PathBuf {
-        let current = self.checkpoint_to_write();
-        let legacy = self.legacy_checkpoint();
-        if !current.is_file() && legacy.is_file() {
-            legacy
-        } else {
-            current
-        }
+        self.checkpoint_to_write()
     }
     /// Where checkpoints are written: `checkpoint.safetensors` (docs/checkpoints.md).
     #[must_use]
     pub fn checkpoint_to_write(&self) -> PathBuf {
         self.dir.join("checkpoint.safetensors")
-    }
-    /// The checkpoint of runs written before checkpoints became safetensors files
-    /// (`checkpoint.bin`): still read, and removed once a newer checkpoint has been written.
-    #[must_use]
-    pub fn legacy_checkpoint(&self) -> PathBuf {
-        self.dir.join("checkpoint.bin")
     }
     /// The training log (CSV).
     #[must_use]

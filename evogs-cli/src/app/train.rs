@@ -198,11 +198,6 @@ fn write_log(log: &[LogRow], path: &Path) -> CommandResult<()> {
 
 fn save_all(t: &Trainer, run: &RunFolder) -> CommandResult<()> {
     checkpoint::save(t, &run.checkpoint_to_write()).map_err(CommandError::new)?;
-    // A resumed older run's `checkpoint.bin` is superseded by the file just written.
-    let legacy = run.legacy_checkpoint();
-    if legacy.is_file() {
-        std::fs::remove_file(&legacy).doing(&legacy, "cannot remove the superseded checkpoint")?;
-    }
     write_log(t.log(), &run.log())?;
     if t.log().len() >= 2 {
         plot::save_curve(t.log(), &run.curve())?;
@@ -386,9 +381,8 @@ fn train_loop(t: &mut Trainer, run: &RunFolder, rep: &mut dyn Reporter) -> Comma
                 t.model().len()
             ),
         );
-        let every = t.cfg().schedule.checkpoint_every;
         let minutes = t.cfg().schedule.checkpoint_minutes;
-        if (every > 0 && t.iteration().is_multiple_of(every))
+        if t.schedule().checkpoint_due(t.iteration())
             || (minutes > 0.0 && last_save.elapsed().as_secs_f64() >= 60.0 * minutes)
         {
             save_all(t, run)?;

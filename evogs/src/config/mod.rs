@@ -10,6 +10,7 @@ use crate::field::{HexPlaneConfig, NeuralFieldConfig};
 use crate::model::{Motion, Waypoints};
 use serde::{Deserialize, Serialize};
 
+mod removed;
 mod sections;
 pub use sections::{
     DataConfig, DensifyConfig, DynamicsConfig, InitConfig, LossConfig, OptimConfig, Preset,
@@ -170,11 +171,6 @@ impl TrainConfig {
                 l1_time: 1e-4,
                 lambda_coherence: 0.01,
                 coherence_samples: 1000,
-                coherence_local: false,
-                lambda_rigidity: 0.0,
-                lambda_rotation: 0.0,
-                lambda_isometry: 0.0,
-                rigidity_samples: 512,
                 lambda_anchor: 1.0,
                 anchor_every: 10,
             },
@@ -209,7 +205,6 @@ impl TrainConfig {
                 checkpoint_every: 5000,
                 checkpoint_minutes: 5.0,
                 log_every: 50,
-                snapshot_every: 500,
                 warmup_time_window: 1.0,
                 curriculum_iters: 0,
                 curriculum_focus: 0.0,
@@ -231,9 +226,11 @@ impl TrainConfig {
     ///
     /// # Errors
     /// Malformed TOML, unknown keys (a removed motion-search table by its own message) or
-    /// wrongly typed values.
+    /// wrongly typed values. A key of a removed training technique (`loss.lambda_rigidity`,
+    /// `schedule.snapshot_every`, ...) is read only at its off value, and then ignored.
     pub fn merge_toml(&self, text: &str) -> Result<Self, String> {
-        let over: toml::Value = toml::from_str(text).map_err(|e| toml_error_line(text, &e))?;
+        let mut over: toml::Value = toml::from_str(text).map_err(|e| toml_error_line(text, &e))?;
+        removed::drop_removed_keys(&mut over)?;
         if let Some(name) = REMOVED_SECTIONS.iter().find(|&&k| over.get(k).is_some()) {
             return Err(format!(
                 "[{name}]: the motion searches were removed from evogs; delete the table"
@@ -256,7 +253,8 @@ impl TrainConfig {
     /// training as they did when resumed; validated like any other configuration. The tables
     /// of the removed motion searches, which runs written while they existed hold, are
     /// ignored: a search that had run left its result in the model, one still pending does
-    /// not run.
+    /// not run. The keys of removed training techniques are read as by
+    /// [`merge_toml`](Self::merge_toml).
     ///
     /// # Errors
     /// As [`merge_toml`](Self::merge_toml) and [`validate`](Self::validate).
@@ -265,16 +263,13 @@ impl TrainConfig {
         base.schedule.warmup_time_window = 1.0;
         base.schedule.curriculum_iters = 0;
         base.schedule.curriculum_focus = 0.0;
-        // Runs from before the rigidity priors trained without them.
-        base.loss.lambda_rigidity = 0.0;
-        base.loss.lambda_rotation = 0.0;
-        base.loss.lambda_isometry = 0.0;
         let mut over: toml::Value = toml::from_str(text).map_err(|e| e.to_string())?;
         if let Some(table) = over.as_table_mut() {
             for name in REMOVED_SECTIONS {
                 table.remove(name);
             }
         }
+        removed::drop_removed_keys(&mut over)?;
         let cfg = base.merge_value(over)?;
         cfg.validate()?;
         Ok(cfg)
@@ -420,19 +415,9 @@ impl TrainConfig {
             ("loss.time_smoothness", l.time_smoothness),
             ("loss.l1_time", l.l1_time),
             ("loss.lambda_coherence", l.lambda_coherence),
-            ("loss.lambda_rigidity", l.lambda_rigidity),
-            ("loss.lambda_rotation", l.lambda_rotation),
-            ("loss.lambda_isometry", l.lambda_isometry),
             ("loss.lambda_anchor", l.lambda_anchor),
         ] {
             nonneg(name, v)?;
-        }
-        if l.rigidity_samples < 2 {
-            return Err(format!(
-                "loss.rigidity_samples must be at least 2 (got {}): the rigidity priors compare \
-                 neighbouring Gaussians of the sample",
-                l.rigidity_samples
-            ));
         }
         let o = &self.optim;
         for (name, v) in [
@@ -648,10 +633,6 @@ mod tests {
             ("[optim]\nscaling_lr = -0.001", "optim.scaling_lr"),
             ("[optim]\ngrid_lr_final = -inf", "optim.grid_lr_final"),
             ("[loss]\nlambda_coherence = nan", "loss.lambda_coherence"),
-            ("[loss]\nlambda_rigidity = nan", "loss.lambda_rigidity"),
-            ("[loss]\nlambda_rotation = inf", "loss.lambda_rotation"),
-            ("[loss]\nlambda_isometry = -1.0", "loss.lambda_isometry"),
-            ("[loss]\nrigidity_samples = 1", "loss.rigidity_samples"),
             ("[loss]\nplane_tv = -1.0", "loss.plane_tv"),
             ("[init]\nrandom_extent = -1.0", "init.random_extent"),
             ("[init]\nrandom_points = 0", "init.random_points"),
@@ -737,5 +718,42 @@ mod tests {
                 "the error names [{name}]: {e}"
             );
         }
+    }
+
+    #[test]
+    fn removed_training_keys_at_their_off_values_still_read() {
+        let now = TrainConfig::fast();
+        let mut text: toml::Value = toml::from_str(&now.to_toml()).expect("toml");
+        let loss = text
+            .get_mut("loss")
+            .and_then(toml::Value::as_table_mut)
+            .expect("loss table");
+        loss.insert("lambda_rigidity".into(), toml::Value::Float(0.0));
+        loss.insert("lambda_rotation".into(), toml::Value::Float(0.0));
+        loss.insert("lambda_isometry".into(), toml::Value::Float(0.0));
+        loss.insert("rigidity_samples".into(), toml::Value::Integer(512));
+        loss.insert("coherence_local".into(), toml::Value::Boolean(false));
+        let sched = text
+            .get_mut("schedule")
+            .and_then(toml::Value::as_table_mut)
+            .expect("schedule table");
+        sched.insert("snapshot_every".into(), toml::Value::Integer(500));
+        let old = toml::to_string(&text).expect("toml");
+        assert_eq!(
+            TrainConfig::from_run_toml(&old).expect("an older run reads"),
+            now,
+            "the removed keys ignored in a stored run"
+        );
+        assert_eq!(
+            now.merge_toml(&old).expect("a config file reads"),
+            now,
+            "and in a config file"
+        );
+        let on = old.replace("lambda_rigidity = 0.0", "lambda_rigidity = 0.3");
+        let e = now.merge_toml(&on).expect_err("the prior switched on");
+        assert!(
+            e.contains("loss.lambda_rigidity") && e.contains("removed"),
+            "{e}"
+        );
     }
 }

@@ -172,7 +172,7 @@ pub struct DynamicsConfig {
     /// Largest step as a fraction of the training time range (the last step of a frame is
     /// shortened to land on its time).
     pub step_fraction: f64,
-    /// Waypoints: trainable, snapshot or off.
+    /// Waypoints: trainable or off.
     pub waypoints: Waypoints,
     /// Number of anchors (start, …, end of the training time range).
     pub anchors: usize,
@@ -196,23 +196,6 @@ pub struct LossConfig {
     pub lambda_coherence: f64,
     /// Gaussians sampled for the coherence loss.
     pub coherence_samples: usize,
-    /// How the coherence samples are drawn. `false` (the released code): uniformly, so the
-    /// nearest neighbours within the sample lie about `extent / samples^⅓` apart (0.3 scene
-    /// units for 500 of 20 000 Gaussians in `toys`) and the term compares different objects,
-    /// a smoothness prior on the whole field. `true`: in local clusters, each a random
-    /// Gaussian and its nearest Gaussians of the whole cloud (canonical positions), so the
-    /// neighbours within the sample are true neighbours and the term is a local rigidity prior
-    /// (with the twist velocity, free for any rigid motion of an object).
-    pub coherence_local: bool,
-    /// Weight of the local-rigidity prior on the Gaussians at the rendered time
-    /// (`docs/losses.md` §8; 0 switches it off).
-    pub lambda_rigidity: f64,
-    /// Weight of the rotation-similarity prior (0 switches it off).
-    pub lambda_rotation: f64,
-    /// Weight of the isometry prior (0 switches it off).
-    pub lambda_isometry: f64,
-    /// Gaussians sampled (in local clusters) per step for the three priors (at least 2).
-    pub rigidity_samples: usize,
     /// Anchor loss weight.
     pub lambda_anchor: f64,
     /// Iterations between anchor-loss evaluations (cycling through the segments).
@@ -290,8 +273,6 @@ pub struct ScheduleConfig {
     pub checkpoint_minutes: f64,
     /// Iterations between log lines.
     pub log_every: u64,
-    /// Iterations between refreshes of snapshot anchors.
-    pub snapshot_every: u64,
     /// Temporal curriculum, start: the fraction of the training time range, from its start,
     /// whose views the static warm-up sees (1: all of them). A small window keeps moving
     /// objects sharp in the canonical state instead of smearing them along their paths.

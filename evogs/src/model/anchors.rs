@@ -3,8 +3,7 @@
 //! A frame at time `t` is integrated from the nearest anchor at or before `t`; after the last
 //! anchor from the last one; before the first, backward from the first. In
 //! [`Waypoints::Trainable`] mode (multiple shooting) every anchor state is a parameter and an
-//! anchor loss ties the segments into one trajectory; in [`Waypoints::Snapshot`] mode the
-//! anchors are periodically refreshed copies of the trajectory integrated from anchor 0; in
+//! anchor loss ties the segments into one trajectory; in
 //! [`Waypoints::Off`] mode everything integrates from anchor 0 (the released code).
 
 use evogs_math::{Quat, Real, Vec3};
@@ -15,8 +14,6 @@ use evogs_math::{Quat, Real, Vec3};
 pub enum Waypoints {
     /// Anchor states are trainable; the anchor loss ties them (default).
     Trainable,
-    /// Anchors are refreshed copies of the integrated state (not trained).
-    Snapshot,
     /// A single anchor at the start of the time range.
     Off,
 }
@@ -26,11 +23,8 @@ impl std::str::FromStr for Waypoints {
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "trainable" => Ok(Self::Trainable),
-            "snapshot" => Ok(Self::Snapshot),
             "off" => Ok(Self::Off),
-            _ => Err(format!(
-                "unknown waypoint mode `{s}` (trainable, snapshot, off)"
-            )),
+            _ => Err(format!("unknown waypoint mode `{s}` (trainable, off)")),
         }
     }
 }

@@ -435,7 +435,7 @@ impl<T: Gemm> Model<T> {
     }
 
     /// Sets anchors `1..K` to the state integrated from anchor 0 (through each anchor in
-    /// turn): the initialisation of trainable anchors and the refresh of snapshot anchors.
+    /// turn): the initialisation of trainable anchors.
     pub fn refresh_anchors_from_start(&mut self, stepper: &mut Option<Stepper<T>>) {
         let mut y = self.initial_state(0);
         for k in 1..self.anchor_times.len() {

@@ -12,12 +12,14 @@
 //! state itself; anchors `1..K` hold their own positions, log-scales and raw quaternions.
 
 pub mod anchors;
+pub mod build;
 pub mod dynamics;
 pub mod init;
 pub mod order;
 pub mod retain;
 
 pub use anchors::{AnchorState, Waypoints, anchor_for_time};
+pub use build::{ModelFrame, build_model};
 pub use dynamics::FrameTape;
 
 use crate::field::{Gemm, NeuralField};

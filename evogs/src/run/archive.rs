@@ -5,9 +5,11 @@
 //!
 //! Each array is a tensor of its name, dtype `F32` or `U64` and shape `[len]`. The safetensors
 //! header's `__metadata__` string map holds one entry, [`METADATA_KEY`], whose value is the
-//! JSON text `{"format": "evogs archive", "meta": …, "meta_f64_bits": […]}`: the metadata and
-//! the bit pattern of each of its floating-point numbers (module `float_bits`), so that it
-//! comes back bit for bit. One entry rather than one per item because the safetensors crate
+//! JSON text `{"format": "evogs archive", "meta": …}`: the metadata, whose floating-point
+//! numbers come back bit for bit (`serde_json` writes the shortest text that parses back to
+//! the same number, and its `float_roundtrip` feature parses it exactly). Entries written
+//! before the feature was on also hold `meta_f64_bits`, the bit patterns of those numbers,
+//! which is ignored. One entry rather than one per item because the safetensors crate
 //! writes that map in hash order: with a single entry the file's bytes are the same from run
 //! to run.
 //!
@@ -16,11 +18,8 @@
 //! that each range matches its dtype and shape (with checked arithmetic); on top, a name
 //! (or a metadata key) appearing twice in a header is refused (JSON parsers keep the last
 //! one silently), every tensor must be 1-D and `F32` or `U64`, and the evogs metadata must be
-//! there and parse. Files of the first format (module `legacy`, magic `EVOGSCK1`) are still
-//! read.
+//! there and parse.
 
-use super::float_bits::{float_bits, restore_float_bits};
-use super::legacy;
 use safetensors::{Dtype, SafeTensors, View};
 use serde::de::{Deserialize, Deserializer, MapAccess, SeqAccess, Visitor};
 use serde_json::{Value, json};
@@ -176,7 +175,6 @@ impl Archive {
         let entry = json!({
             "format": FORMAT,
             "meta": self.meta,
-            "meta_f64_bits": float_bits(&self.meta),
         });
         let metadata = HashMap::from([(METADATA_KEY.to_string(), entry.to_string())]);
         safetensors::serialize(
@@ -221,16 +219,13 @@ impl Archive {
         Self::from_bytes(&bytes).map_err(|msg| ArchiveError::Corrupt { path: p, msg })
     }
 
-    /// Parses an archive from its bytes: a safetensors file, or a file of the first format
-    /// (magic `EVOGSCK1`). Every length and offset is checked against the bytes before an
-    /// array is copied (see the module documentation for the checks).
+    /// Parses an archive from the bytes of a safetensors file. Every length and offset is
+    /// checked against the bytes before an array is copied (see the module documentation for
+    /// the checks).
     ///
     /// # Errors
     /// What is wrong with the bytes (the `msg` of [`ArchiveError::Corrupt`]).
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, String> {
-        if bytes.starts_with(legacy::MAGIC) {
-            return Self::from_legacy(bytes);
-        }
         let (n, header) =
             SafeTensors::read_metadata(bytes).map_err(|e| format!("safetensors: {e}"))?;
         // `read_metadata` has checked that the header's `n` bytes follow the length and that
@@ -249,14 +244,7 @@ impl Archive {
         if entry["format"] != FORMAT {
             return Err(format!("metadata format is not `{FORMAT}`"));
         }
-        let bits: Vec<u64> = entry["meta_f64_bits"]
-            .as_array()
-            .ok_or("no metadata float bits")?
-            .iter()
-            .map(|b| b.as_u64().ok_or("metadata float bits"))
-            .collect::<Result<_, _>>()?;
-        let mut meta = entry["meta"].clone();
-        restore_float_bits(&mut meta, &bits)?;
+        let meta = entry["meta"].clone();
         let data = bytes.get(start..).ok_or("truncated data")?;
         let mut ar = Self::new(meta);
         for name in header.offset_keys() {
@@ -286,21 +274,6 @@ impl Archive {
                 return Err(format!("tensor `{name}` has the wrong byte length"));
             }
             ar.arrays.insert(name, array);
-        }
-        Ok(ar)
-    }
-
-    /// An archive of the first format.
-    fn from_legacy(bytes: &[u8]) -> Result<Self, String> {
-        let parts = legacy::parse(bytes)?;
-        let mut ar = Self::new(parts.meta);
-        for (name, d) in parts.f32s {
-            ar.arrays.insert(name, Array::F32(d));
-        }
-        for (name, d) in parts.u64s {
-            if ar.arrays.insert(name.clone(), Array::U64(d)).is_some() {
-                return Err(format!("array `{name}` appears twice"));
-            }
         }
         Ok(ar)
     }
@@ -447,9 +420,9 @@ mod tests {
         std::fs::remove_dir_all(dir).ok();
     }
 
-    /// Metadata floats come back bit for bit, including values that `serde_json`'s default
-    /// parser reads an ulp off (the test finds such values among random ones and checks that
-    /// some are there, so it would fail if the bit patterns were not used).
+    /// Metadata floats come back bit for bit: `serde_json` with `float_roundtrip` reads
+    /// every float exactly (among these are values its default parser read an ulp off), and
+    /// so does the archive.
     #[test]
     fn metadata_floats_round_trip_exactly() {
         let mut rng = evogs_math::rng::SplitMix64::new(7);
@@ -459,18 +432,11 @@ mod tests {
                 (u - 0.5) * 10f64.powi(i32::try_from(rng.next_u64() % 12).unwrap_or(0) - 6)
             })
             .collect();
-        let misread = xs
-            .iter()
-            .filter(|x| {
-                let back: f64 =
-                    serde_json::from_str(&serde_json::to_string(x).expect("json")).expect("parse");
-                back.to_bits() != x.to_bits()
-            })
-            .count();
-        assert!(
-            misread > 0,
-            "plain JSON reads some of these floats an ulp off"
-        );
+        for x in &xs {
+            let back: f64 =
+                serde_json::from_str(&serde_json::to_string(x).expect("json")).expect("parse");
+            assert!(back.to_bits() == x.to_bits(), "{x:e} read back as {back:e}");
+        }
         let a = Archive::new(json!({"aabb": [xs[..3], xs[3..6]], "n": 3, "all": xs, "t": 0.25}));
         let b = Archive::from_bytes(&a.to_bytes().expect("bytes")).expect("read");
         let back: Vec<f64> = b.meta["all"]
@@ -483,8 +449,7 @@ mod tests {
             back.iter()
                 .zip(&xs)
                 .all(|(a, b)| a.to_bits() == b.to_bits()),
-            "{misread} of {} floats would drift through plain JSON; none may here",
-            xs.len()
+            "every float exactly"
         );
         assert_eq!(a, b, "the whole metadata");
         assert_eq!(b.meta["n"].as_u64(), Some(3), "integers stay integers");
@@ -501,7 +466,8 @@ mod tests {
     }
 
     /// The `__metadata__` entry of an archive with metadata `null`.
-    const META: &str = r#""__metadata__": {"evogs": "{\"format\": \"evogs archive\", \"meta\": null, \"meta_f64_bits\": []}"}"#;
+    const META: &str =
+        r#""__metadata__": {"evogs": "{\"format\": \"evogs archive\", \"meta\": null}"}"#;
 
     #[test]
     fn hostile_safetensors_headers_are_corrupt() {
@@ -518,7 +484,7 @@ mod tests {
             Some(&[0.0][..]),
             "control"
         );
-        let cases: [(&str, Vec<u8>); 9] = [
+        let cases: [(&str, Vec<u8>); 8] = [
             ("huge header length", {
                 let mut b = (u64::MAX - 8).to_le_bytes().to_vec();
                 b.extend_from_slice(b"{}");
@@ -581,91 +547,9 @@ mod tests {
                 "unparseable metadata",
                 st_raw(r#"{"__metadata__": {"evogs": "{"}}"#, &[]),
             ),
-            (
-                "float bits that do not match",
-                st_raw(
-                    r#"{"__metadata__": {"evogs": "{\"format\": \"evogs archive\", \"meta\": 0.5, \"meta_f64_bits\": []}"}}"#,
-                    &[],
-                ),
-            ),
         ];
         for (what, bytes) in cases {
             assert!(Archive::from_bytes(&bytes).is_err(), "{what}: refused");
-        }
-    }
-
-    /// A file of the first format with this JSON header and data.
-    fn legacy_raw(header_len: u64, header: &str, data: &[u8]) -> Vec<u8> {
-        let mut b = legacy::MAGIC.to_vec();
-        b.extend_from_slice(&header_len.to_le_bytes());
-        b.extend_from_slice(header.as_bytes());
-        b.extend_from_slice(data);
-        b
-    }
-
-    /// A checkpoint of the first format, written here as the old writer wrote it, reads back
-    /// with its arrays and exact metadata floats.
-    #[test]
-    fn first_format_archives_are_still_read() {
-        let meta = json!({"iteration": 12, "t": 0.1});
-        let header = json!({
-            "meta": meta,
-            "arrays": [
-                {"name": "x", "kind": "f32", "len": 2},
-                {"name": "rng", "kind": "u64", "len": 1},
-            ],
-            "meta_f64_bits": [0.1f64.to_bits()],
-        })
-        .to_string();
-        let mut data = Vec::new();
-        for v in [1.5f32, -2.0] {
-            data.extend_from_slice(&v.to_le_bytes());
-        }
-        data.extend_from_slice(&u64::MAX.to_le_bytes());
-        let bytes = legacy_raw(header.len() as u64, &header, &data);
-        let dir = tmp("legacy");
-        let p = dir.join("checkpoint.bin");
-        std::fs::write(&p, &bytes).expect("write");
-        let a = Archive::read(&p).expect("read");
-        assert_eq!(a.meta, meta, "metadata");
-        assert_eq!(a.f32("x"), Some(&[1.5, -2.0][..]), "f32 array");
-        assert_eq!(a.u64("rng"), Some(&[u64::MAX][..]), "u64 array");
-        // Written back, it is a safetensors file with the same contents.
-        a.write(&p).expect("rewrite");
-        let b = Archive::read(&p).expect("reread");
-        assert_eq!(a, b, "converted");
-        assert!(
-            SafeTensors::deserialize(&std::fs::read(&p).expect("bytes")).is_ok(),
-            "now safetensors"
-        );
-        let mut short = bytes.clone();
-        short.pop();
-        assert_eq!(
-            Archive::from_bytes(&short).expect_err("truncated"),
-            "truncated data",
-            "truncated first-format file"
-        );
-        std::fs::remove_dir_all(dir).ok();
-    }
-
-    /// Lengths near `usize::MAX` in a first-format file are reported as corrupt, not
-    /// overflowed into a panic.
-    #[test]
-    fn huge_declared_lengths_are_corrupt() {
-        let e =
-            Archive::from_bytes(&legacy_raw(u64::MAX - 8, "{}", &[])).expect_err("header length");
-        assert_eq!(e, "truncated header", "huge header length");
-        for (kind, len) in [
-            ("f32", u64::MAX / 4 + 1),
-            ("u64", u64::MAX / 8 + 1),
-            ("f32", u64::MAX),
-        ] {
-            let h = format!(
-                r#"{{"meta": null, "arrays": [{{"name": "a", "kind": "{kind}", "len": {len}}}]}}"#
-            );
-            let e = Archive::from_bytes(&legacy_raw(h.len() as u64, &h, &[0; 16]))
-                .expect_err("array length");
-            assert_eq!(e, "truncated data", "{kind} array of {len}");
         }
     }
 

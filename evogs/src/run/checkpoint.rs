@@ -1,31 +1,33 @@
-//! Checkpoints: everything a run needs to continue bit for bit (model, Adam moments,
-//! densification accumulators, random state, view order, log), in one [`Archive`] written
-//! atomically.
+//! Checkpoints: a model and the [`TrainerState`] of the run that trained it (Adam moments,
+//! densification accumulators, random state, view order, log), everything a run needs to
+//! continue bit for bit, in one [`Archive`] written atomically. The metadata is a typed
+//! [`CheckpointMeta`]; the arrays are named after the model's parts and the optimiser's
+//! parameter groups ([`Optimizer::groups`]). `docs/checkpoints.md` describes the format.
 
 use super::archive::{Archive, ArchiveError};
 use crate::config::TrainConfig;
-use crate::field::{NeuralField, TimeMapping};
-use crate::model::{AnchorState, Model};
+use crate::field::TimeMapping;
+use crate::model::{AnchorState, Model, ModelFrame, build_model};
 use crate::train::adam::AdamState;
 use crate::train::densify::DensifyStats;
 use crate::train::frames::TrainViews;
-use crate::train::optim::{Optimizer, StateGroups};
+use crate::train::optim::Optimizer;
+use crate::train::sampler::ViewSampler;
+use crate::train::state::TrainerState;
 use crate::train::trainer::{LogRow, Trainer};
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Quat, Vec3};
 use evogs_splat::Splats;
-use serde_json::json;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Checkpoint format version.
-///
-/// Still 1 after the motion searches were removed: checkpoints written while they existed may
-/// also hold an `orbit_bodies` array (the bodies the orbit search had moved, read only by the
-/// spin search), which is ignored, and their stored configuration's `[spin_search]` and
-/// `[orbit_search]` tables are dropped by [`TrainConfig::from_run_toml`]. Every other array and
-/// field is as before, so such checkpoints load, evaluate, render, export and resume as
-/// before (without any search still pending in them), and older builds read the new ones.
+/// Checkpoint format version. Checkpoints written before the metadata was typed (by the
+/// same version) hold the same fields, and a `meta_f64_bits` entry that is no longer needed
+/// (the JSON is read back exactly) and is ignored.
 const VERSION: u64 = 1;
+
+/// The `format` field of a checkpoint's metadata.
+const FORMAT: &str = "evogs checkpoint";
 
 /// Why a checkpoint could not be used.
 #[derive(Debug, thiserror::Error)]
@@ -43,50 +45,102 @@ pub enum CheckpointError {
     },
 }
 
+/// A checkpoint's metadata (the arrays hold the rest).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CheckpointMeta {
+    /// Always `evogs checkpoint`.
+    pub format: String,
+    /// Format version.
+    pub version: u64,
+    /// Iterations done.
+    pub iteration: u64,
+    /// Seconds spent in iterations.
+    pub train_seconds: f64,
+    /// Scene extent (learning-rate scale).
+    pub extent: f64,
+    /// Training time range.
+    pub time_range: [f64; 2],
+    /// Whether the dynamics are on.
+    pub dynamics_active: bool,
+    /// Anchor times.
+    pub anchor_times: Vec<f64>,
+    /// SH degree of the canonical Gaussians.
+    pub sh_degree: usize,
+    /// Number of Gaussians.
+    pub gaussians: usize,
+    /// The field's box (lower, upper corner).
+    pub aabb: [[f64; 3]; 2],
+    /// How the field reads time.
+    pub time_mapping: TimeMapping,
+    /// Largest ODE step.
+    pub max_step: f64,
+    /// Position in the view order.
+    pub order_pos: usize,
+    /// Random state, as decimal text (exact in every JSON reader).
+    #[serde(with = "decimal")]
+    pub rng_state: u64,
+    /// The run's configuration (TOML).
+    pub config: String,
+    /// The log rows so far.
+    pub log: Vec<LogRow>,
+}
+
+/// A `u64` as decimal text.
+mod decimal {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub(super) fn serialize<S: Serializer>(v: &u64, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&v.to_string())
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<u64, D::Error> {
+        let text = String::deserialize(d)?;
+        text.parse().map_err(serde::de::Error::custom)
+    }
+}
+
 fn flat_vec3(v: &[Vec3<f32>]) -> Vec<f32> {
     v.iter().flat_map(|x| x.to_array()).collect()
 }
 fn flat_quat(v: &[Quat<f32>]) -> Vec<f32> {
     v.iter().flat_map(|q| q.to_array()).collect()
 }
-fn put_adam(ar: &mut Archive, name: &str, s: &AdamState, steps: &mut Vec<u64>) {
-    ar.put_f32(&format!("adam.{name}.m"), &s.m);
-    ar.put_f32(&format!("adam.{name}.v"), &s.v);
-    steps.push(s.step);
-}
-fn put_groups(ar: &mut Archive, name: &str, g: &StateGroups, steps: &mut Vec<u64>) {
-    put_adam(ar, &format!("{name}.means"), &g.means, steps);
-    put_adam(ar, &format!("{name}.log_scales"), &g.log_scales, steps);
-    put_adam(ar, &format!("{name}.quats"), &g.quats, steps);
+fn widen(v: &[u32]) -> Vec<u64> {
+    v.iter().map(|&x| u64::from(x)).collect()
 }
 
-/// Writes a trainer's complete state.
+/// Writes a trainer's model and state.
 ///
 /// # Errors
-/// I/O failures (the previous checkpoint, if any, is left intact).
+/// A non-finite value, or I/O failures (the previous checkpoint, if any, is left intact).
 pub fn save(t: &Trainer, path: &Path) -> Result<(), CheckpointError> {
-    let m = &t.model;
+    let m = t.model();
+    let st = t.state();
     let (lo, hi) = m.field.hexplane().aabb();
-    let time = m.field.hexplane().time_mapping();
-    let meta = json!({
-        "format": "evogs checkpoint",
-        "version": VERSION,
-        "iteration": t.iteration,
-        "train_seconds": t.train_seconds,
-        "extent": t.extent,
-        "time_range": [t.time_range.0, t.time_range.1],
-        "dynamics_active": m.dynamics_active,
-        "anchor_times": m.anchor_times,
-        "sh_degree": m.canonical.sh_degree,
-        "gaussians": m.len(),
-        "aabb": [lo, hi],
-        "time_mapping": serde_json::to_value(time).unwrap_or_default(),
-        "max_step": m.max_step,
-        "order_pos": t.order_pos,
-        "rng_state": t.rng.state().to_string(),
-        "config": t.cfg.to_toml(),
-        "log": t.log,
-    });
+    let meta = CheckpointMeta {
+        format: FORMAT.into(),
+        version: VERSION,
+        iteration: st.iteration,
+        train_seconds: st.train_seconds,
+        extent: st.extent,
+        time_range: [st.time_range.0, st.time_range.1],
+        dynamics_active: m.dynamics_active,
+        anchor_times: m.anchor_times.clone(),
+        sh_degree: m.canonical.sh_degree,
+        gaussians: m.len(),
+        aabb: [lo, hi],
+        time_mapping: m.field.hexplane().time_mapping(),
+        max_step: m.max_step,
+        order_pos: st.sampler.pos(),
+        rng_state: st.rng.state(),
+        config: t.cfg().to_toml(),
+        log: st.log.clone(),
+    };
+    let invalid = |msg: String| CheckpointError::Invalid {
+        path: path.display().to_string(),
+        msg,
+    };
+    let meta = serde_json::to_value(&meta).map_err(|e| invalid(format!("metadata: {e}")))?;
     let mut ar = Archive::new(meta);
     let c = &m.canonical;
     ar.put_f32("canonical.means", &flat_vec3(&c.means));
@@ -103,48 +157,32 @@ pub fn save(t: &Trainer, path: &Path) -> Result<(), CheckpointError> {
         ar.put_f32(&format!("anchor{k}.quats"), &flat_quat(&a.quats));
     }
     ar.put_f32("field", m.field.params());
-    let o = &t.optim;
     let mut steps = Vec::new();
-    put_groups(&mut ar, "canonical", &o.canonical, &mut steps);
-    put_adam(&mut ar, "opacity", &o.opacity, &mut steps);
-    put_adam(&mut ar, "sh_dc", &o.sh_dc, &mut steps);
-    put_adam(&mut ar, "sh_rest", &o.sh_rest, &mut steps);
-    for (k, g) in o.anchors.iter().enumerate() {
-        put_groups(&mut ar, &format!("anchor{k}"), g, &mut steps);
+    let o = &st.optim;
+    for g in o.groups() {
+        let s = o.state(g);
+        ar.put_f32(&format!("adam.{}.m", g.name()), &s.m);
+        ar.put_f32(&format!("adam.{}.v", g.name()), &s.v);
+        steps.push(s.step);
     }
-    put_adam(&mut ar, "grid", &o.grid, &mut steps);
-    put_adam(&mut ar, "mlp", &o.mlp, &mut steps);
     ar.put_u64("adam.steps", &steps);
-    ar.put_f32("stats.accum", &t.stats.accum);
-    ar.put_u64(
-        "stats.count",
-        &t.stats
-            .count
-            .iter()
-            .map(|&v| u64::from(v))
-            .collect::<Vec<_>>(),
-    );
-    ar.put_u64(
-        "stats.max_radius",
-        &t.stats
-            .max_radius
-            .iter()
-            .map(|&v| u64::from(v))
-            .collect::<Vec<_>>(),
-    );
+    ar.put_f32("stats.accum", &st.stats.accum);
+    ar.put_u64("stats.count", &widen(&st.stats.count));
+    ar.put_u64("stats.max_radius", &widen(&st.stats.max_radius));
     ar.put_u64(
         "order",
-        &t.order.iter().map(|&v| v as u64).collect::<Vec<_>>(),
+        &st.sampler
+            .order()
+            .iter()
+            .map(|&v| v as u64)
+            .collect::<Vec<_>>(),
     );
     if let Some((name, i)) = ar.first_non_finite() {
-        return Err(CheckpointError::Invalid {
-            path: path.display().to_string(),
-            msg: format!(
-                "not written: `{name}`[{i}] is not finite at iteration {} (the previous \
-                 checkpoint is kept)",
-                t.iteration
-            ),
-        });
+        return Err(invalid(format!(
+            "not written: `{name}`[{i}] is not finite at iteration {} (the previous \
+             checkpoint is kept)",
+            st.iteration
+        )));
     }
     ar.write(path)?;
     Ok(())
@@ -157,19 +195,46 @@ pub struct Loaded {
     pub cfg: TrainConfig,
     /// The model.
     pub model: Model<f32>,
+    /// The metadata.
+    pub meta: CheckpointMeta,
     /// The raw archive (metadata and the optimiser arrays).
     pub archive: Archive,
+}
+
+/// Reads the typed metadata of an archive, naming the field that is missing or wrong.
+fn read_meta(ar: &Archive) -> Result<CheckpointMeta, String> {
+    if ar.meta.get("format").and_then(serde_json::Value::as_str) != Some(FORMAT) {
+        return Err(format!(
+            "not an evogs checkpoint (metadata `format` is not `{FORMAT}`)"
+        ));
+    }
+    let meta: CheckpointMeta = serde_path_to_error::deserialize(&ar.meta).map_err(|e| {
+        let field = e.path().to_string();
+        let msg = e.inner().to_string();
+        if field == "." {
+            format!("metadata: {msg}")
+        } else {
+            format!("metadata field `{field}`: {msg}")
+        }
+    })?;
+    if meta.version != VERSION {
+        return Err(format!(
+            "metadata field `version`: {} (this build reads version {VERSION})",
+            meta.version
+        ));
+    }
+    Ok(meta)
 }
 
 /// Reads the model of a checkpoint (enough for evaluation, rendering and export).
 ///
 /// # Errors
-/// Unreadable, corrupt or inconsistent files.
+/// Unreadable, corrupt or inconsistent files (the message names the file and, for the
+/// metadata, the field).
 pub fn load_model(path: &Path) -> Result<Loaded, CheckpointError> {
     let ar = Archive::read(path)?;
-    let p = path.display().to_string();
     let bad = |msg: String| CheckpointError::Invalid {
-        path: p.clone(),
+        path: path.display().to_string(),
         msg,
     };
     if let Some((name, i)) = ar.first_non_finite() {
@@ -177,21 +242,17 @@ pub fn load_model(path: &Path) -> Result<Loaded, CheckpointError> {
             "`{name}`[{i}] is not finite: the checkpoint is corrupt"
         )));
     }
-    let meta = &ar.meta;
-    if meta["format"] != "evogs checkpoint" || meta["version"].as_u64() != Some(VERSION) {
-        return Err(bad("not an evogs checkpoint of version 1".into()));
-    }
-    let cfg = TrainConfig::from_run_toml(meta["config"].as_str().unwrap_or_default())
-        .map_err(|e| bad(format!("stored configuration: {e}")))?;
+    let meta = read_meta(&ar).map_err(bad)?;
+    let cfg = TrainConfig::from_run_toml(&meta.config)
+        .map_err(|e| bad(format!("metadata field `config`: {e}")))?;
     let f = |name: &str| {
         ar.f32(name)
             .ok_or_else(|| bad(format!("missing array `{name}`")))
     };
     let v3 = |d: &[f32]| -> Vec<Vec3<f32>> { d.chunks_exact(3).map(Vec3::from_slice).collect() };
     let qs = |d: &[f32]| -> Vec<Quat<f32>> { d.chunks_exact(4).map(Quat::from_slice).collect() };
-    let sh_degree = usize::try_from(meta["sh_degree"].as_u64().unwrap_or(0)).unwrap_or(0);
     let canonical = Splats {
-        sh_degree,
+        sh_degree: meta.sh_degree,
         means: v3(f("canonical.means")?),
         log_scales: v3(f("canonical.log_scales")?),
         quats: qs(f("canonical.quats")?),
@@ -204,81 +265,120 @@ pub fn load_model(path: &Path) -> Result<Loaded, CheckpointError> {
     if !canonical.check() {
         return Err(bad("canonical Gaussians have inconsistent lengths".into()));
     }
-    let arr3 = |v: &serde_json::Value| -> Option<[f64; 3]> {
-        Some([v[0].as_f64()?, v[1].as_f64()?, v[2].as_f64()?])
+    if canonical.len() != meta.gaussians {
+        return Err(bad(format!(
+            "metadata field `gaussians`: {}, the arrays hold {}",
+            meta.gaussians,
+            canonical.len()
+        )));
+    }
+    let frame = ModelFrame {
+        aabb: (meta.aabb[0], meta.aabb[1]),
+        time: meta.time_mapping,
+        max_step: meta.max_step,
+        anchor_times: meta.anchor_times.clone(),
     };
-    let lo = arr3(&meta["aabb"][0]).ok_or_else(|| bad("missing aabb".into()))?;
-    let hi = arr3(&meta["aabb"][1]).ok_or_else(|| bad("missing aabb".into()))?;
-    let time: TimeMapping = serde_json::from_value(meta["time_mapping"].clone())
-        .map_err(|e| bad(format!("time mapping: {e}")))?;
-    let mut field = NeuralField::new(&cfg.field, lo, hi, time, 0);
+    let mut model = build_model(&cfg, canonical, frame);
     let params = f("field")?;
-    if params.len() != field.params().len() {
+    if params.len() != model.field.params().len() {
         return Err(bad(format!(
             "field has {} parameters, the configuration needs {}",
             params.len(),
-            field.params().len()
+            model.field.params().len()
         )));
     }
-    field.params_mut().copy_from_slice(params);
-    let anchor_times: Vec<f64> = meta["anchor_times"]
-        .as_array()
-        .map(|a| a.iter().filter_map(serde_json::Value::as_f64).collect())
-        .unwrap_or_default();
-    let method = cfg.dynamics.method;
-    let max_step = meta["max_step"]
-        .as_f64()
-        .ok_or_else(|| bad("missing max_step".into()))?;
-    let mut model = Model::new(
-        canonical,
-        field,
-        cfg.dynamics.motion,
-        cfg.dynamics.waypoints,
-        method,
-        max_step,
-        anchor_times,
-    );
+    model.field.params_mut().copy_from_slice(params);
     for k in 0..model.anchors.len() {
         model.anchors[k] = AnchorState {
             means: v3(f(&format!("anchor{k}.means"))?),
             log_scales: v3(f(&format!("anchor{k}.log_scales"))?),
             quats: qs(f(&format!("anchor{k}.quats"))?),
         };
-        if model.anchors[k].means.len() != model.len() {
+        let a = &model.anchors[k];
+        if a.means.len() != model.len()
+            || a.log_scales.len() != model.len()
+            || a.quats.len() != model.len()
+        {
             return Err(bad(format!(
                 "anchor {k} has a different number of Gaussians"
             )));
         }
     }
-    model.dynamics_active = meta["dynamics_active"].as_bool().unwrap_or(false);
+    model.dynamics_active = meta.dynamics_active;
     Ok(Loaded {
         cfg,
         model,
+        meta,
         archive: ar,
     })
 }
 
-fn get_adam(ar: &Archive, name: &str, steps: &mut std::slice::Iter<'_, u64>) -> Option<AdamState> {
-    Some(AdamState {
-        m: ar.f32(&format!("adam.{name}.m"))?.to_vec(),
-        v: ar.f32(&format!("adam.{name}.v"))?.to_vec(),
-        step: *steps.next()?,
-    })
-}
-fn get_groups(
+/// Reads the trainer state of a checkpoint for `model` (read by [`load_model`]).
+///
+/// # Errors
+/// A missing or inconsistent array, in words.
+fn read_state(
     ar: &Archive,
-    name: &str,
-    steps: &mut std::slice::Iter<'_, u64>,
-) -> Option<StateGroups> {
-    Some(StateGroups {
-        means: get_adam(ar, &format!("{name}.means"), steps)?,
-        log_scales: get_adam(ar, &format!("{name}.log_scales"), steps)?,
-        quats: get_adam(ar, &format!("{name}.quats"), steps)?,
-    })
+    meta: &CheckpointMeta,
+    model: &Model<f32>,
+) -> Result<TrainerState, String> {
+    let f = |name: &str| {
+        ar.f32(name)
+            .ok_or_else(|| format!("missing array `{name}`"))
+    };
+    let u = |name: &str| {
+        ar.u64(name)
+            .ok_or_else(|| format!("missing array `{name}`"))
+    };
+    let narrow = |v: &[u64]| -> Vec<u32> {
+        v.iter()
+            .map(|&x| u32::try_from(x).unwrap_or(u32::MAX))
+            .collect()
+    };
+    let mut optim = Optimizer::new(model);
+    let steps = u("adam.steps")?;
+    let groups: Vec<_> = optim.groups().collect();
+    if steps.len() != groups.len() {
+        return Err(format!(
+            "`adam.steps` has {} entries for {} parameter groups",
+            steps.len(),
+            groups.len()
+        ));
+    }
+    for (g, &step) in groups.into_iter().zip(steps) {
+        let name = g.name();
+        *optim.state_mut(g) = AdamState {
+            m: f(&format!("adam.{name}.m"))?.to_vec(),
+            v: f(&format!("adam.{name}.v"))?.to_vec(),
+            step,
+        };
+    }
+    let order = u("order")?
+        .iter()
+        .map(|&v| usize::try_from(v).map_err(|_| "view order entry out of range".to_string()))
+        .collect::<Result<Vec<_>, _>>()?;
+    let sampler = ViewSampler::from_parts(order, meta.order_pos)?;
+    let state = TrainerState {
+        iteration: meta.iteration,
+        train_seconds: meta.train_seconds,
+        extent: meta.extent,
+        time_range: (meta.time_range[0], meta.time_range[1]),
+        rng: SplitMix64::new(meta.rng_state),
+        sampler,
+        log: meta.log.clone(),
+        stats: DensifyStats {
+            accum: f("stats.accum")?.to_vec(),
+            count: narrow(u("stats.count")?),
+            max_radius: narrow(u("stats.max_radius")?),
+        },
+        optim,
+    };
+    state.check(model)?;
+    Ok(state)
 }
 
-/// Rebuilds a trainer from a checkpoint and the (same) training views, to continue exactly
-/// where it stopped.
+/// Rebuilds a trainer from a checkpoint (its model and its state) and the same training
+/// views, to continue exactly where it stopped.
 ///
 /// # Errors
 /// Unreadable or inconsistent checkpoints.
@@ -286,83 +386,13 @@ pub fn resume(path: &Path, views: impl Into<TrainViews>) -> Result<Trainer, Chec
     let Loaded {
         cfg,
         model,
-        archive: ar,
+        meta,
+        archive,
     } = load_model(path)?;
-    let p = path.display().to_string();
-    let bad = |msg: &str| CheckpointError::Invalid {
-        path: p.clone(),
-        msg: msg.to_string(),
+    let bad = |msg: String| CheckpointError::Invalid {
+        path: path.display().to_string(),
+        msg,
     };
-    let meta = ar.meta.clone();
-    let mut t = Trainer::new(cfg, views, None).map_err(|e| bad(&e.to_string()))?;
-    t.model = model;
-    let all_steps = ar
-        .u64("adam.steps")
-        .ok_or_else(|| bad("missing Adam steps"))?
-        .to_vec();
-    let mut steps = all_steps.iter();
-    let mut o = crate::train::optim::Optimizer {
-        adam: t.optim.adam,
-        ..Optimizer::default()
-    };
-    o.canonical = get_groups(&ar, "canonical", &mut steps)
-        .ok_or_else(|| bad("missing canonical Adam state"))?;
-    o.opacity =
-        get_adam(&ar, "opacity", &mut steps).ok_or_else(|| bad("missing opacity Adam state"))?;
-    o.sh_dc = get_adam(&ar, "sh_dc", &mut steps).ok_or_else(|| bad("missing SH Adam state"))?;
-    o.sh_rest = get_adam(&ar, "sh_rest", &mut steps).ok_or_else(|| bad("missing SH Adam state"))?;
-    for k in 0..t.model.anchors.len() {
-        o.anchors.push(
-            get_groups(&ar, &format!("anchor{k}"), &mut steps)
-                .ok_or_else(|| bad("missing anchor Adam state"))?,
-        );
-    }
-    o.grid = get_adam(&ar, "grid", &mut steps).ok_or_else(|| bad("missing grid Adam state"))?;
-    o.mlp = get_adam(&ar, "mlp", &mut steps).ok_or_else(|| bad("missing MLP Adam state"))?;
-    t.optim = o;
-    t.iteration = meta["iteration"]
-        .as_u64()
-        .ok_or_else(|| bad("missing iteration"))?;
-    t.train_seconds = meta["train_seconds"].as_f64().unwrap_or(0.0);
-    t.extent = meta["extent"]
-        .as_f64()
-        .ok_or_else(|| bad("missing extent"))?;
-    t.time_range = (
-        meta["time_range"][0].as_f64().unwrap_or(0.0),
-        meta["time_range"][1].as_f64().unwrap_or(1.0),
-    );
-    t.rng = SplitMix64::new(
-        meta["rng_state"]
-            .as_str()
-            .and_then(|s| s.parse().ok())
-            .ok_or_else(|| bad("missing rng state"))?,
-    );
-    t.order = ar
-        .u64("order")
-        .unwrap_or_default()
-        .iter()
-        .map(|&v| usize::try_from(v).unwrap_or(0))
-        .collect();
-    t.order_pos = usize::try_from(meta["order_pos"].as_u64().unwrap_or(0)).unwrap_or(0);
-    t.log = serde_json::from_value::<Vec<LogRow>>(meta["log"].clone()).unwrap_or_default();
-    t.stats = DensifyStats {
-        accum: ar.f32("stats.accum").unwrap_or_default().to_vec(),
-        count: ar
-            .u64("stats.count")
-            .unwrap_or_default()
-            .iter()
-            .map(|&v| u32::try_from(v).unwrap_or(u32::MAX))
-            .collect(),
-        max_radius: ar
-            .u64("stats.max_radius")
-            .unwrap_or_default()
-            .iter()
-            .map(|&v| u32::try_from(v).unwrap_or(u32::MAX))
-            .collect(),
-    };
-    if t.stats.accum.len() != t.model.len() {
-        return Err(bad("densification statistics have the wrong length"));
-    }
-    t.model.field.set_par(t.par);
-    Ok(t)
+    let state = read_state(&archive, &meta, &model).map_err(bad)?;
+    Trainer::from_parts(cfg, model, state, views).map_err(|e| bad(e.to_string()))
 }

@@ -2,5 +2,3 @@
 
 pub mod archive;
 pub mod checkpoint;
-mod float_bits;
-mod legacy;

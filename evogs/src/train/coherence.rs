@@ -21,8 +21,7 @@
 //! The weights depend only on the detached positions, so the gradient flows to the
 //! velocities (and from there to the field's parameters) only.
 //!
-//! The neighbours come from [`super::neighbours`]; `[loss] coherence_local` draws the sample
-//! in local clusters there.
+//! The neighbours come from [`super::neighbours`].
 
 use super::neighbours::neighbour_pairs;
 

@@ -125,6 +125,100 @@ fn quat_pairs<'a>(
     })
 }
 
+/// One parameter group of a model, with its own Adam state: the list of groups exists once,
+/// in [`Optimizer::for_each_group`] (Adam steps, checkpoints and densification all walk it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Group {
+    /// Canonical positions.
+    Means,
+    /// Canonical log-scales.
+    LogScales,
+    /// Canonical quaternions.
+    Quats,
+    /// Opacity logits.
+    Opacity,
+    /// SH DC coefficients.
+    ShDc,
+    /// Higher SH coefficients.
+    ShRest,
+    /// Positions of anchor `k + 1`.
+    AnchorMeans(usize),
+    /// Log-scales of anchor `k + 1`.
+    AnchorLogScales(usize),
+    /// Quaternions of anchor `k + 1`.
+    AnchorQuats(usize),
+    /// HexPlane parameters.
+    Grid,
+    /// MLP parameters and output scales.
+    Mlp,
+}
+
+impl Group {
+    /// The group's name in checkpoints (`canonical.means`, `anchor0.quats`, `grid`, ...).
+    #[must_use]
+    pub fn name(self) -> String {
+        match self {
+            Self::Means => "canonical.means".into(),
+            Self::LogScales => "canonical.log_scales".into(),
+            Self::Quats => "canonical.quats".into(),
+            Self::Opacity => "opacity".into(),
+            Self::ShDc => "sh_dc".into(),
+            Self::ShRest => "sh_rest".into(),
+            Self::AnchorMeans(k) => format!("anchor{k}.means"),
+            Self::AnchorLogScales(k) => format!("anchor{k}.log_scales"),
+            Self::AnchorQuats(k) => format!("anchor{k}.quats"),
+            Self::Grid => "grid".into(),
+            Self::Mlp => "mlp".into(),
+        }
+    }
+
+    /// Values per Gaussian (`sh_coeffs` SH coefficients per Gaussian), or `None` for the
+    /// field's groups, which do not grow with the Gaussians.
+    #[must_use]
+    pub const fn per_gaussian(self, sh_coeffs: usize) -> Option<usize> {
+        match self {
+            Self::Means
+            | Self::LogScales
+            | Self::AnchorMeans(_)
+            | Self::AnchorLogScales(_)
+            | Self::ShDc => Some(3),
+            Self::Quats | Self::AnchorQuats(_) => Some(4),
+            Self::Opacity => Some(1),
+            Self::ShRest => Some(3 * (sh_coeffs - 1)),
+            Self::Grid | Self::Mlp => None,
+        }
+    }
+
+    /// Whether Adam steps the group only while the dynamics are active (their gradients are
+    /// zero before).
+    #[must_use]
+    pub const fn dynamic(self) -> bool {
+        matches!(
+            self,
+            Self::AnchorMeans(_)
+                | Self::AnchorLogScales(_)
+                | Self::AnchorQuats(_)
+                | Self::Grid
+                | Self::Mlp
+        )
+    }
+
+    /// The group's learning rate.
+    #[must_use]
+    pub fn rate(self, lr: &LearningRates) -> f64 {
+        match self {
+            Self::Means | Self::AnchorMeans(_) => lr.position,
+            Self::LogScales | Self::AnchorLogScales(_) => lr.scaling,
+            Self::Quats | Self::AnchorQuats(_) => lr.rotation,
+            Self::Opacity => lr.opacity,
+            Self::ShDc => lr.feature,
+            Self::ShRest => lr.feature / 20.0,
+            Self::Grid => lr.grid,
+            Self::Mlp => lr.deformation,
+        }
+    }
+}
+
 impl Optimizer {
     /// Zero moments for a model.
     #[must_use]
@@ -143,115 +237,169 @@ impl Optimizer {
         }
     }
 
-    /// One Adam step of every trainable group. The anchors and the field are stepped only
-    /// while the dynamics are active (their gradients are zero before).
-    pub fn step(&mut self, model: &mut Model<f32>, grad: &ModelGrad<f32>, lr: &LearningRates) {
-        let adam = self.adam;
-        let c = &mut model.canonical;
-        let g = &grad.canonical;
-        step_state(
-            &adam,
-            &mut self.canonical,
-            lr,
-            &mut c.means,
-            &mut c.log_scales,
-            &mut c.quats,
-            &g.means,
-            &g.log_scales,
-            &g.quats,
-        );
-        self.opacity
-            .step(&adam, lr.opacity, &mut c.opacity_logits, &g.opacity_logits);
-        let k = c.coeffs_per_gaussian();
-        let dc =
-            c.sh.iter_mut()
-                .zip(&g.sh)
-                .step_by(k)
-                .flat_map(|(v, d)| v.iter_mut().zip(d.iter().copied()));
-        self.sh_dc.step_iter(&adam, lr.feature, dc);
-        if k > 1 {
-            let rest =
-                c.sh.iter_mut()
-                    .zip(&g.sh)
-                    .enumerate()
-                    .filter(|(i, _)| i % k != 0)
-                    .flat_map(|(_, (v, d))| v.iter_mut().zip(d.iter().copied()));
-            self.sh_rest.step_iter(&adam, lr.feature / 20.0, rest);
-        }
-        if model.dynamics_active {
-            for ((a, ga), st) in model
-                .anchors
-                .iter_mut()
-                .zip(&grad.anchors)
-                .zip(&mut self.anchors)
-            {
-                step_state(
-                    &adam,
-                    st,
-                    lr,
-                    &mut a.means,
-                    &mut a.log_scales,
-                    &mut a.quats,
-                    &ga.means,
-                    &ga.log_scales,
-                    &ga.quats,
-                );
-            }
-            let (gr, mr) = (model.field.grid_range(), model.field.mlp_range());
-            let p = model.field.params_mut();
-            self.grid
-                .step(&adam, lr.grid, &mut p[gr.clone()], &grad.field[gr]);
-            self.mlp
-                .step(&adam, lr.deformation, &mut p[mr.clone()], &grad.field[mr]);
+    /// Every parameter group, in the checkpoints' order: canonical positions, log-scales,
+    /// quaternions, opacity, SH DC, higher SH, each anchor's positions, log-scales and
+    /// quaternions, HexPlane, MLP. The one list of the groups.
+    pub fn groups(&self) -> impl Iterator<Item = Group> + use<> {
+        let canonical = [
+            Group::Means,
+            Group::LogScales,
+            Group::Quats,
+            Group::Opacity,
+            Group::ShDc,
+            Group::ShRest,
+        ];
+        let anchors = (0..self.anchors.len()).flat_map(|k| {
+            [
+                Group::AnchorMeans(k),
+                Group::AnchorLogScales(k),
+                Group::AnchorQuats(k),
+            ]
+        });
+        canonical
+            .into_iter()
+            .chain(anchors)
+            .chain([Group::Grid, Group::Mlp])
+    }
+
+    /// Calls `f` with every parameter group ([`groups`](Self::groups)) and its Adam state.
+    pub fn for_each_group(&mut self, mut f: impl FnMut(Group, &mut AdamState)) {
+        for g in self.groups() {
+            f(g, self.state_mut(g));
         }
     }
 
-    /// Every per-Gaussian Adam state with its values per Gaussian (positions, log-scales and
-    /// quaternions of the canonical state and of every anchor, opacity, SH DC, higher SH).
-    fn for_each_gaussian_state(
-        &mut self,
-        sh_coeffs: usize,
-        mut f: impl FnMut(&mut AdamState, usize),
-    ) {
-        for st in std::iter::once(&mut self.canonical).chain(self.anchors.iter_mut()) {
-            f(&mut st.means, 3);
-            f(&mut st.log_scales, 3);
-            f(&mut st.quats, 4);
+    /// The Adam state of a group.
+    ///
+    /// # Panics
+    /// An anchor group of an anchor the optimiser does not have.
+    #[must_use]
+    pub fn state(&self, g: Group) -> &AdamState {
+        match g {
+            Group::Means => &self.canonical.means,
+            Group::LogScales => &self.canonical.log_scales,
+            Group::Quats => &self.canonical.quats,
+            Group::Opacity => &self.opacity,
+            Group::ShDc => &self.sh_dc,
+            Group::ShRest => &self.sh_rest,
+            Group::AnchorMeans(k) => &self.anchors[k].means,
+            Group::AnchorLogScales(k) => &self.anchors[k].log_scales,
+            Group::AnchorQuats(k) => &self.anchors[k].quats,
+            Group::Grid => &self.grid,
+            Group::Mlp => &self.mlp,
         }
-        f(&mut self.opacity, 1);
-        f(&mut self.sh_dc, 3);
-        f(&mut self.sh_rest, 3 * (sh_coeffs - 1));
+    }
+
+    /// The Adam state of a group, to change.
+    ///
+    /// # Panics
+    /// An anchor group of an anchor the optimiser does not have.
+    pub fn state_mut(&mut self, g: Group) -> &mut AdamState {
+        match g {
+            Group::Means => &mut self.canonical.means,
+            Group::LogScales => &mut self.canonical.log_scales,
+            Group::Quats => &mut self.canonical.quats,
+            Group::Opacity => &mut self.opacity,
+            Group::ShDc => &mut self.sh_dc,
+            Group::ShRest => &mut self.sh_rest,
+            Group::AnchorMeans(k) => &mut self.anchors[k].means,
+            Group::AnchorLogScales(k) => &mut self.anchors[k].log_scales,
+            Group::AnchorQuats(k) => &mut self.anchors[k].quats,
+            Group::Grid => &mut self.grid,
+            Group::Mlp => &mut self.mlp,
+        }
+    }
+
+    /// One Adam step of every trainable group. The anchors and the field are stepped only
+    /// while the dynamics are active (their gradients are zero before); the higher SH
+    /// coefficients only when there are any.
+    pub fn step(&mut self, model: &mut Model<f32>, grad: &ModelGrad<f32>, lr: &LearningRates) {
+        let adam = self.adam;
+        let k = model.canonical.coeffs_per_gaussian();
+        let (gr, mr) = (model.field.grid_range(), model.field.mlp_range());
+        self.for_each_group(|group, st| {
+            if (group.dynamic() && !model.dynamics_active) || (group == Group::ShRest && k == 1) {
+                return;
+            }
+            let rate = group.rate(lr);
+            let c = &mut model.canonical;
+            let g = &grad.canonical;
+            match group {
+                Group::Means => st.step_iter(&adam, rate, vec3_pairs(&mut c.means, &g.means)),
+                Group::LogScales => {
+                    st.step_iter(&adam, rate, vec3_pairs(&mut c.log_scales, &g.log_scales));
+                }
+                Group::Quats => st.step_iter(&adam, rate, quat_pairs(&mut c.quats, &g.quats)),
+                Group::Opacity => st.step(&adam, rate, &mut c.opacity_logits, &g.opacity_logits),
+                Group::ShDc => {
+                    let dc = c.sh.iter_mut().zip(&g.sh).step_by(k);
+                    st.step_iter(
+                        &adam,
+                        rate,
+                        dc.flat_map(|(v, d)| v.iter_mut().zip(d.iter().copied())),
+                    );
+                }
+                Group::ShRest => {
+                    let rest = c.sh.iter_mut().zip(&g.sh).enumerate();
+                    st.step_iter(
+                        &adam,
+                        rate,
+                        rest.filter(|(i, _)| i % k != 0)
+                            .flat_map(|(_, (v, d))| v.iter_mut().zip(d.iter().copied())),
+                    );
+                }
+                Group::AnchorMeans(a) => st.step_iter(
+                    &adam,
+                    rate,
+                    vec3_pairs(&mut model.anchors[a].means, &grad.anchors[a].means),
+                ),
+                Group::AnchorLogScales(a) => st.step_iter(
+                    &adam,
+                    rate,
+                    vec3_pairs(
+                        &mut model.anchors[a].log_scales,
+                        &grad.anchors[a].log_scales,
+                    ),
+                ),
+                Group::AnchorQuats(a) => st.step_iter(
+                    &adam,
+                    rate,
+                    quat_pairs(&mut model.anchors[a].quats, &grad.anchors[a].quats),
+                ),
+                Group::Grid => st.step(
+                    &adam,
+                    rate,
+                    &mut model.field.params_mut()[gr.clone()],
+                    &grad.field[gr.clone()],
+                ),
+                Group::Mlp => st.step(
+                    &adam,
+                    rate,
+                    &mut model.field.params_mut()[mr.clone()],
+                    &grad.field[mr.clone()],
+                ),
+            }
+        });
     }
 
     /// Keeps the Adam entries of the Gaussians flagged in `keep`, then appends zero moments
     /// for `added` new Gaussians (densification).
     pub fn resize_gaussians(&mut self, keep: &[bool], added: usize, sh_coeffs: usize) {
-        self.for_each_gaussian_state(sh_coeffs, |st, stride| {
-            st.retain(keep, stride);
-            st.grow(added, stride);
+        self.for_each_group(|g, st| {
+            if let Some(stride) = g.per_gaussian(sh_coeffs) {
+                st.retain(keep, stride);
+                st.grow(added, stride);
+            }
         });
     }
 
     /// Reorders the Adam entries of the Gaussians as [`Model::permute_gaussians`] reorders
     /// the Gaussians.
     pub fn permute_gaussians(&mut self, order: &[usize], sh_coeffs: usize) {
-        self.for_each_gaussian_state(sh_coeffs, |st, stride| st.permute(order, stride));
+        self.for_each_group(|g, st| {
+            if let Some(stride) = g.per_gaussian(sh_coeffs) {
+                st.permute(order, stride);
+            }
+        });
     }
-}
-
-fn step_state(
-    adam: &Adam,
-    st: &mut StateGroups,
-    lr: &LearningRates,
-    means: &mut [Vec3<f32>],
-    log_scales: &mut [Vec3<f32>],
-    quats: &mut [Quat<f32>],
-    gm: &[Vec3<f32>],
-    gs: &[Vec3<f32>],
-    gq: &[Quat<f32>],
-) {
-    st.means.step_iter(adam, lr.position, vec3_pairs(means, gm));
-    st.log_scales
-        .step_iter(adam, lr.scaling, vec3_pairs(log_scales, gs));
-    st.quats.step_iter(adam, lr.rotation, quat_pairs(quats, gq));
 }

@@ -15,12 +15,9 @@
 
 use crate::field::Gemm;
 use crate::field::regularize::{PlaneRegWeights, plane_regularizers};
-use crate::model::{FrameTape, Model, ModelGrad, Motion, Waypoints};
+use crate::model::{Model, ModelGrad, Motion, Waypoints};
 use crate::train::coherence::{COHERENCE_K, coherence_loss, twist_coherence_loss};
 use crate::train::render_pass::{RenderTimes, render_backward, render_forward};
-use crate::train::rigidity::{
-    RigidPoint, RigidPointGrad, RigidityGraph, RigidityWeights, rigidity_loss_and_grad,
-};
 use evogs_math::{Par, Real, Vec3};
 use evogs_ode::Stepper;
 use evogs_splat::loss::photometric_loss_and_grad;
@@ -59,12 +56,6 @@ pub struct StepSettings {
     /// Positions where the coherence loss queries the velocity: canonical positions of
     /// sampled Gaussians, copied (detached) when sampled (fewer than two: no coherence).
     pub coherence_points: Vec<[f64; 3]>,
-    /// Weights of the neighbour rigidity priors.
-    pub rigidity: RigidityWeights,
-    /// The Gaussians the rigidity priors compare (indices; empty: no priors this step).
-    pub rigidity_sample: Vec<usize>,
-    /// Their neighbour graph (built from their canonical positions when sampled).
-    pub rigidity_graph: RigidityGraph,
 }
 
 /// The terms of one step's loss.
@@ -84,9 +75,6 @@ pub struct StepLosses {
     pub coherence: f64,
     /// Weighted anchor loss.
     pub anchor: f64,
-    /// Weighted rigidity priors (summed over the views, each weighted as its photometric
-    /// term).
-    pub rigidity: f64,
     /// Seconds spent in each phase of the step.
     pub timings: StepTimings,
 }
@@ -104,7 +92,7 @@ pub struct StepTimings {
     pub loss: f64,
     /// Back through the dynamics (discrete adjoint or displacement VJP).
     pub adjoint: f64,
-    /// Regularisers, coherence, anchor loss and rigidity priors.
+    /// Regularisers, coherence and anchor loss.
     pub extra: f64,
 }
 
@@ -223,7 +211,6 @@ pub fn batch_loss_and_grad<T: Gemm>(
         losses.l1 += weight * l.l1;
         losses.ssim += weight * l.ssim;
         losses.mse += weight * l.mse;
-        losses.rigidity += l.rigidity;
         losses.timings.add(&l.timings);
         match &mut batch_stats {
             None => batch_stats = Some(st),
@@ -242,10 +229,9 @@ pub fn batch_loss_and_grad<T: Gemm>(
 }
 
 /// The photometric term of one view, `weight·((1 − λ)·L1 + λ·(1 − SSIM))` (`weight` = 1/B
-/// for the mean over a batch of B views), and the rigidity priors of the Gaussians at its time
-/// (weighted alike), through the render and the dynamics: **adds** their gradient into `grad`
-/// and returns the unweighted L1, SSIM and MSE with the weighted total and priors, and the
-/// view's densification statistics.
+/// for the mean over a batch of B views), through the render and the dynamics: **adds** its
+/// gradient into `grad` and returns the unweighted L1, SSIM and MSE with the weighted total,
+/// and the view's densification statistics.
 pub fn view_loss_and_grad<T: Gemm>(
     model: &mut Model<T>,
     view: &ViewData<T>,
@@ -318,12 +304,6 @@ pub fn view_loss_and_grad<T: Gemm>(
     );
     timings.render = clock.elapsed().as_secs_f64() - timings.dynamics;
     timings.phases = phases;
-    let mut rigidity = 0.0;
-    if !matches!(tape, FrameTape::Static) && s.rigidity.any() && !s.rigidity_graph.is_empty() {
-        let start = std::time::Instant::now();
-        rigidity = rigidity_term(model, &splats_t, s, weight, &mut g.splats, grad);
-        timings.extra = start.elapsed().as_secs_f64();
-    }
     let adjoint_start = std::time::Instant::now();
     model.backward_at(&tape, &mut ws.stepper, &g.splats, grad);
     timings.adjoint = adjoint_start.elapsed().as_secs_f64();
@@ -334,8 +314,7 @@ pub fn view_loss_and_grad<T: Gemm>(
         mse,
         ..StepLosses::default()
     };
-    losses.total = weight * photo.total.to_f64() + rigidity;
-    losses.rigidity = rigidity;
+    losses.total = weight * photo.total.to_f64();
     losses.timings = timings;
     let stats = ScreenStats {
         grad2d: g.raster.means2d.iter().map(|v| [v.x, v.y]).collect(),
@@ -347,40 +326,6 @@ pub fn view_loss_and_grad<T: Gemm>(
     ws.render = Some(fwd);
     ws.render_grad = Some(g);
     (losses, stats)
-}
-
-/// The rigidity priors of the sampled Gaussians at the view's time against their canonical
-/// state, scaled by `weight`: **adds** the gradient with respect to the Gaussians at that time
-/// into `d_splats_t` and with respect to the canonical Gaussians into `grad`; returns the
-/// weighted value.
-fn rigidity_term<T: Gemm>(
-    model: &Model<T>,
-    splats_t: &Splats<T>,
-    s: &StepSettings,
-    weight: f64,
-    d_splats_t: &mut Splats<T>,
-    grad: &mut ModelGrad<T>,
-) -> f64 {
-    let c = &model.canonical;
-    let points: Vec<RigidPoint<T>> = s
-        .rigidity_sample
-        .iter()
-        .map(|&i| RigidPoint {
-            p0: c.means[i],
-            q0: c.quats[i],
-            p: splats_t.means[i],
-            q: splats_t.quats[i],
-        })
-        .collect();
-    let mut grads = vec![RigidPointGrad::zero(); points.len()];
-    let l = rigidity_loss_and_grad(&s.rigidity_graph, &points, &s.rigidity, weight, &mut grads);
-    for (&i, g) in s.rigidity_sample.iter().zip(&grads) {
-        d_splats_t.means[i] += g.p;
-        d_splats_t.quats[i] = d_splats_t.quats[i] + g.q;
-        grad.canonical.means[i] += g.p0;
-        grad.canonical.quats[i] = grad.canonical.quats[i] + g.q0;
-    }
-    weight * l.weighted(&s.rigidity)
 }
 
 /// The regularisers of a step at time `t`: the HexPlane terms, the velocity coherence and

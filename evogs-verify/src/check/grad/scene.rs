@@ -10,7 +10,6 @@
 use evogs::field::regularize::PlaneRegWeights;
 use evogs::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use evogs::model::{Model, ModelGrad, Motion, Waypoints};
-use evogs::train::rigidity::{RigidityGraph, RigidityWeights};
 use evogs::train::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, batch_loss_and_grad, render_options,
 };
@@ -116,15 +115,6 @@ fn build(motion: Motion, seed: u64, twist: bool) -> GradScene {
         .iter()
         .map(|&i: &usize| splats.means[i].to_array())
         .collect();
-    let rigidity_sample = vec![0, 1, 3, 4, 6, 8];
-    let rigidity_graph = RigidityGraph::new(
-        &rigidity_sample
-            .iter()
-            .map(|&i: &usize| splats.means[i].to_array())
-            .collect::<Vec<_>>(),
-        3,
-        0.3,
-    );
     let mut model = Model::new(
         splats,
         field,
@@ -165,13 +155,6 @@ fn build(motion: Motion, seed: u64, twist: bool) -> GradScene {
         lambda_anchor: 0.7,
         anchor_segment: Some(0),
         coherence_points,
-        rigidity: RigidityWeights {
-            rigidity: 0.3,
-            rotation: 0.2,
-            isometry: 0.4,
-        },
-        rigidity_sample,
-        rigidity_graph,
     };
     GradScene {
         model,
