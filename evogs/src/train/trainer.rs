@@ -180,7 +180,6 @@ impl Trainer {
             hi[a] += m;
         }
         let time = match cfg.dynamics.time_mapping {
-            TimeCoordinate::Raw => TimeMapping::Raw,
             TimeCoordinate::Normalized => TimeMapping::Normalized {
                 t_min: t0,
                 t_max: t1,
