@@ -163,8 +163,8 @@ pub fn integrate_recorded<T: Real, F: VectorField<T> + ?Sized>(
 /// same result).
 ///
 /// # Panics
-/// If the tape was not written by the run of this trajectory (another grid, method or
-/// field size), or if the lengths do not match the layout and the field.
+/// If the tape was not written by a run like this trajectory's (another number of steps,
+/// method or field size), or if the lengths do not match the layout and the field.
 pub fn discrete_adjoint_recorded<T: Real, F: VectorField<T> + ?Sized>(
     field: &mut F,
     stepper: &mut Stepper<T>,

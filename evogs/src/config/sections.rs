@@ -202,8 +202,7 @@ pub struct LossConfig {
     /// units for 500 of 20 000 Gaussians in `toys`) and the term compares different objects,
     /// a smoothness prior on the whole field. `true`: in local clusters, each a random
     /// Gaussian and its nearest Gaussians of the whole cloud (canonical positions), so the
-    /// neighbours within the sample are true neighbours and the term is a local rigidity prior
-    /// (with the twist velocity, free for any rigid motion of an object).
+    /// neighbours within the sample are true neighbours and the term is a local rigidity prior.
     pub coherence_local: bool,
     /// Weight of the local-rigidity prior on the Gaussians at the rendered time
     /// (`docs/losses.md` §8; 0 switches it off).
