@@ -77,11 +77,7 @@ impl<T: Real, R: Default> StageTape<T, R> {
     /// Prepares a run of `steps` steps of `stages` stages on a tangent of `dim` entries:
     /// the last `capacity / stages` steps are kept.
     fn begin(&mut self, steps: usize, stages: usize, dim: usize) {
-        let kept_steps = if stages == 0 {
-            0
-        } else {
-            (self.capacity / stages).min(steps)
-        };
+        let kept_steps = self.capacity.checked_div(stages).unwrap_or(0).min(steps);
         self.steps = steps;
         self.stages = stages;
         self.dim = dim;
@@ -146,7 +142,7 @@ pub fn integrate_recorded<T: Real, F: VectorField<T> + ?Sized>(
         let (t, h) = grid.step(k);
         match tape.step_mut(k) {
             Some((outputs, records)) => {
-                stepper.step_recorded(field, t, h, &mut y, outputs, records)
+                stepper.step_recorded(field, t, h, &mut y, outputs, records);
             }
             None => stepper.step(field, t, h, &mut y),
         }

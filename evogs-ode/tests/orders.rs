@@ -225,7 +225,8 @@ fn forward_then_backward_returns_within_h_to_the_p() {
         integrate(p, &mut st, &TimeGrid::uniform(t1, 0.0, n), &mut y);
         state_distance(&layout, &y, &y0)
     }
-    let problems: [(&str, Box<dyn ExactProblem<f64, Record = ()>>); 4] = [
+    type Problem = Box<dyn ExactProblem<f64, Record = ()>>;
+    let problems: [(&str, Problem); 4] = [
         ("logistic", Box::new(Logistic::default())),
         ("problem K", Box::new(ProblemK)),
         ("symmetric top", Box::new(SymmetricTop::default())),

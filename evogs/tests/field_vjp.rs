@@ -253,7 +253,11 @@ fn parallel_evaluation_is_bitwise_sequential() {
 /// The outputs and the VJPs (position and parameter gradients for the cotangent `w`) of
 /// the small field at `n` positions and three times, the VJPs from the evaluations' records
 /// (`recorded`) or recomputing; and the MLP rows run forward.
-fn outputs_and_vjps(n: usize, recorded: bool) -> (Vec<Vec<f64>>, Vec<(Vec<f64>, Vec<f64>)>, u64) {
+/// The outputs per time, the (position, parameter) gradients per VJP and the MLP rows run
+/// forward.
+type Calls = (Vec<Vec<f64>>, Vec<(Vec<f64>, Vec<f64>)>, u64);
+
+fn outputs_and_vjps(n: usize, recorded: bool) -> Calls {
     let y = states(n, 29);
     let mut rng = SplitMix64::new(31);
     let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();
@@ -427,6 +431,6 @@ fn the_adjoint_from_a_stage_tape_is_bitwise_the_recomputing_one_within_any_budge
         );
         // Kept stages run forward once; the others once more in the reverse pass (into a
         // scratch record that their VJPs read).
-        assert_eq!(rows as usize, (6 + (6 - kept)) * n, "budget {budget}");
+        assert_eq!(rows, ((6 + (6 - kept)) * n) as u64, "budget {budget}");
     }
 }
