@@ -83,6 +83,7 @@ impl Quadrotor {
 }
 
 impl<T: Real> VectorField<T> for Quadrotor {
+    type Record = ();
     fn dim(&self) -> usize {
         12
     }

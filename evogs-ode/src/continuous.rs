@@ -74,6 +74,7 @@ struct Augmented<'a, T, F: ?Sized> {
 }
 
 impl<T: Real, F: VectorField<T> + ?Sized> VectorField<T> for Augmented<'_, T, F> {
+    type Record = ();
     fn dim(&self) -> usize {
         2 * self.n + self.p
     }

@@ -49,6 +49,7 @@ impl<T: Real> LinearField<T> {
 }
 
 impl<T: Real> VectorField<T> for LinearField<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         self.n
     }
@@ -177,6 +178,7 @@ impl<T: Real> Mlp<T> {
 }
 
 impl<T: Real> VectorField<T> for Mlp<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         self.n
     }

@@ -161,6 +161,25 @@ impl<T: Real> Trajectory<T> {
     }
 }
 
+impl<T> Trajectory<T> {
+    /// A `StoreAll` trajectory over `grid` from its states (`len` entries each, grid
+    /// indices `0..N`) and the final state.
+    pub(crate) const fn store_all(
+        grid: TimeGrid<T>,
+        len: usize,
+        states: Vec<T>,
+        final_state: Vec<T>,
+    ) -> Self {
+        Self {
+            grid,
+            checkpointing: Checkpointing::StoreAll,
+            len,
+            states,
+            final_state,
+        }
+    }
+}
+
 /// Integrates from `y0` over `grid`, keeping checkpoints according to `checkpointing`.
 ///
 /// # Panics

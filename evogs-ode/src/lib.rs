@@ -24,6 +24,7 @@ mod stepper;
 #[cfg(feature = "proptest")]
 pub mod strategies;
 mod tableau;
+mod tape;
 
 pub use adjoint::{discrete_adjoint, discrete_adjoint_observed};
 pub use continuous::{AdjointError, ContinuousAdjoint, ContinuousVariant, continuous_adjoint};
@@ -35,3 +36,4 @@ pub use method::{Method, ParseMethodError};
 pub use rational::Rational;
 pub use stepper::Stepper;
 pub use tableau::{MAX_STAGES, OrderCondition, Tableau};
+pub use tape::{StageTape, discrete_adjoint_recorded, integrate_recorded};

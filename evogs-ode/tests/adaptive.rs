@@ -130,15 +130,18 @@ type Maker = Box<dyn Fn() -> Box<dyn ExactHolder>>;
 
 /// Object-safe access to an exact problem (the test builds them at run time).
 trait ExactHolder {
-    fn as_exact(&mut self) -> &mut dyn ExactProblem<f64>;
+    fn as_exact(&mut self) -> &mut dyn ExactProblem<f64, Record = ()>;
 }
-impl<P: ExactProblem<f64> + 'static> ExactHolder for P {
-    fn as_exact(&mut self) -> &mut dyn ExactProblem<f64> {
+impl<P: ExactProblem<f64, Record = ()> + 'static> ExactHolder for P {
+    fn as_exact(&mut self) -> &mut dyn ExactProblem<f64, Record = ()> {
         self
     }
 }
 
-fn output_error_dyn(p: &mut dyn ExactProblem<f64>, sol: &AdaptiveSolution<f64>) -> f64 {
+fn output_error_dyn(
+    p: &mut dyn ExactProblem<f64, Record = ()>,
+    sol: &AdaptiveSolution<f64>,
+) -> f64 {
     let layout = p.layout();
     let mut exact = vec![0.0; layout.ambient_len()];
     (0..sol.times().len())
@@ -443,6 +446,7 @@ fn failures_are_errors_not_panics() {
     #[derive(Clone, Copy, Debug)]
     struct BlowUp;
     impl VectorField<f64> for BlowUp {
+        type Record = ();
         fn dim(&self) -> usize {
             1
         }

@@ -46,7 +46,7 @@ fn report(s: &ConvergenceStudy) -> f64 {
     est.order
 }
 
-fn check_orders(problem: &mut dyn ExactProblem<f64>, methods: &[Method]) {
+fn check_orders(problem: &mut dyn ExactProblem<f64, Record = ()>, methods: &[Method]) {
     for &m in methods {
         let s = convergence_study(problem, m, &ns_for(m.order()));
         let p = report(&s);
@@ -214,7 +214,7 @@ fn lie_methods_are_exact_for_a_constant_world_rate() {
 /// that scales like h^p.
 #[test]
 fn forward_then_backward_returns_within_h_to_the_p() {
-    fn round_trip(p: &mut dyn ExactProblem<f64>, m: Method, n: usize) -> f64 {
+    fn round_trip(p: &mut dyn ExactProblem<f64, Record = ()>, m: Method, n: usize) -> f64 {
         let layout = p.layout();
         let mut st = Stepper::new(m, layout);
         let mut y0 = vec![0.0; layout.ambient_len()];
@@ -225,7 +225,8 @@ fn forward_then_backward_returns_within_h_to_the_p() {
         integrate(p, &mut st, &TimeGrid::uniform(t1, 0.0, n), &mut y);
         state_distance(&layout, &y, &y0)
     }
-    let problems: [(&str, Box<dyn ExactProblem<f64>>); 4] = [
+    type Problem = Box<dyn ExactProblem<f64, Record = ()>>;
+    let problems: [(&str, Problem); 4] = [
         ("logistic", Box::new(Logistic::default())),
         ("problem K", Box::new(ProblemK)),
         ("symmetric top", Box::new(SymmetricTop::default())),

@@ -81,6 +81,7 @@ struct Polynomial {
 }
 
 impl VectorField<f64> for Polynomial {
+    type Record = ();
     fn dim(&self) -> usize {
         self.coeffs.len()
     }

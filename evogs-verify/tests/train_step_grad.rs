@@ -1,6 +1,5 @@
 //! One full training step's gradient (photometric L1 + D-SSIM through render(integrate(field)),
-//! plane regularisers, velocity coherence (its twist form with the twist velocity) and the
-//! anchor loss) against central differences of
+//! plane regularisers, velocity coherence and the anchor loss) against central differences of
 //! the same step's loss, in f64, for every parameter group (sampled entries), in velocity and
 //! deformation motion, and on a batch of two views. The scene and the per-group check live in
 //! `evogs_verify::check::grad` (shared with `evogs check-grad` and the cross-crate tests).
@@ -8,9 +7,7 @@
 use evogs::model::Motion;
 use evogs::train::step::StepLosses;
 use evogs_verify::check::grad::GradRow;
-use evogs_verify::check::grad::model::{
-    SAMPLES, batch_training_step_rows, training_step_rows, twist_training_step_rows,
-};
+use evogs_verify::check::grad::model::{SAMPLES, batch_training_step_rows, training_step_rows};
 use evogs_verify::check::grad::scene::{
     batch_step_loss_and_grad, grad_scene, param_groups, second_view,
 };
@@ -49,11 +46,6 @@ fn velocity_step_gradient_matches_central_differences() {
 #[test]
 fn deformation_step_gradient_matches_central_differences() {
     check(Motion::Deformation, 5, 6);
-}
-
-#[test]
-fn twist_velocity_step_gradient_matches_central_differences() {
-    assert_rows(Motion::Velocity, twist_training_step_rows(3, SAMPLES), 9);
 }
 
 #[test]

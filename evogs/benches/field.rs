@@ -26,7 +26,6 @@ fn field(preset: &str) -> NeuralField<f32> {
         width,
         output_scales: [10.0, 1.0, 1.0],
         zero_init_output: false,
-        twist: false,
     };
     NeuralField::new(
         &cfg,

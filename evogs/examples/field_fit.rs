@@ -13,7 +13,7 @@
 //! ```
 
 use evogs::config::TrainConfig;
-use evogs::field::{NeuralField, TimeMapping};
+use evogs::field::{Batch, BatchVjp, FieldRecord, NeuralField, TimeMapping};
 use evogs_math::Vec3;
 use evogs_math::rng::SplitMix64;
 use evogs_math::so3::exp_quat;
@@ -66,6 +66,7 @@ fn main() {
     let mut d_out = vec![0f32; 9 * POINTS];
     let mut d_pos = vec![0f32; 3 * POINTS];
     let mut g = vec![0f32; field.params().len()];
+    let mut record = FieldRecord::default();
     #[allow(clippy::cast_precision_loss, reason = "a small count")]
     let inv_n = 1.0 / POINTS as f64;
     for it in 1..=ITERATIONS {
@@ -84,7 +85,13 @@ fn main() {
         }
         #[allow(clippy::cast_possible_truncation, reason = "the field runs in f32")]
         let t32 = t as f32;
-        field.eval_batch(t32, &pos, 3, POINTS, &mut out);
+        let at = Batch {
+            t: t32,
+            positions: &pos,
+            stride: 3,
+            n: POINTS,
+        };
+        field.eval_batch(&at, &mut out, Some(&mut record));
         let (mut err, mut norm) = (0.0, 0.0);
         d_out.fill(0.0);
         for (i, tg) in target.iter().enumerate() {
@@ -99,7 +106,14 @@ fn main() {
             }
         }
         g.fill(0.0);
-        field.vjp_batch(t32, &pos, 3, POINTS, &d_out, &mut d_pos, 3, &mut g);
+        field.vjp_batch(BatchVjp {
+            at,
+            record: Some(&record),
+            d_out: &d_out,
+            d_positions: &mut d_pos,
+            d_stride: 3,
+            d_params: &mut g,
+        });
         adam.step(&mut field, &g, 1.0);
         if it.is_multiple_of(100) || it == 1 {
             println!(

@@ -1,8 +1,13 @@
 //! The neural field's VJP (positions and every parameter: planes, MLP weights, output
-//! scales) against central differences in f64, the dot-product test, and bitwise agreement of
-//! sequential and parallel evaluation.
+//! scales) against central differences in f64, the dot-product test, bitwise agreement of
+//! sequential and parallel evaluation, and of the VJP from a forward record with the one that
+//! recomputes the forward pass (also through the ODE adjoint's stage tape under a memory
+//! budget).
 
-use evogs::field::{FieldProfile, HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
+use evogs::field::{
+    Batch, BatchVjp, FieldProfile, FieldRecord, HexPlaneConfig, NeuralField, NeuralFieldConfig,
+    TimeMapping,
+};
 use evogs_math::Par;
 use evogs_math::diff::{GradCheck, central_gradient, central_jvp, vjp_dot_test};
 use evogs_math::rng::SplitMix64;
@@ -16,13 +21,12 @@ const UNIT_TIME: TimeMapping = TimeMapping::Normalized {
 };
 
 fn small_field(time: TimeMapping) -> NeuralField<f64> {
-    field_with(time, 3, false)
+    field_with(time, 3)
 }
 
 /// The small field with `channels` per plane (the channel loops work in blocks of 8 with a
-/// scalar tail, so 3 covers the tail alone and 10 a block and a tail), its velocity read as a
-/// twist or not.
-fn field_with(time: TimeMapping, channels: usize, twist: bool) -> NeuralField<f64> {
+/// scalar tail, so 3 covers the tail alone and 10 a block and a tail).
+fn field_with(time: TimeMapping, channels: usize) -> NeuralField<f64> {
     let cfg = NeuralFieldConfig {
         hexplane: HexPlaneConfig {
             channels,
@@ -32,7 +36,6 @@ fn field_with(time: TimeMapping, channels: usize, twist: bool) -> NeuralField<f6
         width: 8,
         output_scales: [10.0, 1.0, 1.0],
         zero_init_output: false,
-        twist,
     };
     let mut f = NeuralField::new(&cfg, [-1.0, -1.5, -0.5], [1.0, 1.0, 1.5], time, 7);
     // Perturb the time planes away from 1 so that time actually matters.
@@ -127,7 +130,12 @@ fn check_vjp_against_central_differences(f: &mut NeuralField<f64>, n: usize, lab
 
 #[test]
 fn vjp_matches_central_differences_for_positions_and_parameters() {
-    for time in [UNIT_TIME, TimeMapping::Raw] {
+    // The unit range, and a range the times fall partly outside of.
+    let other = TimeMapping::Normalized {
+        t_min: 0.25,
+        t_max: 0.5,
+    };
+    for time in [UNIT_TIME, other] {
         check_vjp_against_central_differences(&mut small_field(time), 5, &format!("{time:?}"));
     }
 }
@@ -135,47 +143,7 @@ fn vjp_matches_central_differences_for_positions_and_parameters() {
 #[test]
 fn vjp_matches_central_differences_across_a_channel_block_and_its_tail() {
     // 10 channels: one 8-channel block of the vectorised loops and a scalar tail of 2.
-    let time = UNIT_TIME;
-    check_vjp_against_central_differences(&mut field_with(time, 10, false), 5, "10 channels");
-}
-
-#[test]
-fn twist_velocity_vjp_matches_central_differences() {
-    // v = a + ω × (x − c): the position gradient gains w × ω, the angular-velocity head (and
-    // its output scale) gains (x − c) × w.
-    let time = UNIT_TIME;
-    check_vjp_against_central_differences(&mut field_with(time, 3, true), 5, "twist");
-}
-
-#[test]
-fn twist_velocity_is_the_heads_plus_omega_cross_the_arm() {
-    let time = TimeMapping::Raw;
-    let (mut plain, mut twist) = (field_with(time, 3, false), field_with(time, 3, true));
-    let n = 4;
-    let y = states(n, 13);
-    plain.set_count(n);
-    twist.set_count(n);
-    let (mut a, mut b) = (vec![0.0; 9 * n], vec![0.0; 9 * n]);
-    plain.eval(0.3, &y, &mut a);
-    twist.eval(0.3, &y, &mut b);
-    // The box is [-1, 1] × [-1.5, 1] × [-0.5, 1.5]: centre (0, -0.25, 0.5).
-    let c = [0.0, -0.25, 0.5];
-    for i in 0..n {
-        let (o, p) = (&a[9 * i..9 * i + 9], &y[10 * i..10 * i + 3]);
-        let r = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
-        let cross = [
-            o[4] * r[2] - o[5] * r[1],
-            o[5] * r[0] - o[3] * r[2],
-            o[3] * r[1] - o[4] * r[0],
-        ];
-        for k in 0..9 {
-            let want = if k < 3 { o[k] + cross[k] } else { o[k] };
-            assert!(
-                (b[9 * i + k] - want).abs() < 1e-14,
-                "Gaussian {i} output {k}"
-            );
-        }
-    }
+    check_vjp_against_central_differences(&mut field_with(UNIT_TIME, 10), 5, "10 channels");
 }
 
 #[test]
@@ -189,12 +157,12 @@ fn batched_vjp_over_several_chunks_is_the_sum_of_single_gaussian_vjps() {
     let y = states(n, 13);
     let mut rng = SplitMix64::new(17);
     let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();
-    let mut f = field_with(time, 10, false);
+    let mut f = field_with(time, 10);
     f.set_count(n);
     let mut d_y = vec![0.0; n * 9];
     let mut d_p = vec![0.0; f.n_params()];
     f.vjp(0.42, &y, &w, &mut d_y, &mut d_p);
-    let mut g = field_with(time, 10, false);
+    let mut g = field_with(time, 10);
     g.set_count(1);
     let mut sum_p = vec![0.0; g.n_params()];
     for i in 0..n {
@@ -282,70 +250,187 @@ fn parallel_evaluation_is_bitwise_sequential() {
     assert!(results[0] == results[1], "Seq and Rayon differ");
 }
 
-#[test]
-fn stored_evaluations_give_bitwise_identical_outputs_and_vjps() {
-    let n = 600; // several chunks
+/// The outputs and the VJPs (position and parameter gradients for the cotangent `w`) of
+/// the small field at `n` positions and three times, the VJPs from the evaluations' records
+/// (`recorded`) or recomputing; and the MLP rows run forward.
+/// The outputs per time, the (position, parameter) gradients per VJP and the MLP rows run
+/// forward.
+type Calls = (Vec<Vec<f64>>, Vec<(Vec<f64>, Vec<f64>)>, u64);
+
+fn outputs_and_vjps(n: usize, recorded: bool) -> Calls {
     let y = states(n, 29);
     let mut rng = SplitMix64::new(31);
     let w: Vec<f64> = (0..n * 9).map(|_| rng.uniform(-1.0, 1.0)).collect();
-    let run_with = |capacity: usize, budget: usize, interleave: bool| {
+    let mut f = small_field(UNIT_TIME);
+    let profile = Arc::new(FieldProfile::default());
+    f.set_profile(Some(Arc::clone(&profile)));
+    let times = [0.1, 0.4, 0.7];
+    let mut records: Vec<FieldRecord<f64>> = times.iter().map(|_| FieldRecord::default()).collect();
+    let mut outs = Vec::new();
+    for (&t, rec) in times.iter().zip(&mut records) {
+        let at = Batch {
+            t,
+            positions: &y,
+            stride: 10,
+            n,
+        };
+        let mut out = vec![0.0; n * 9];
+        f.eval_batch(&at, &mut out, recorded.then_some(rec));
+        outs.push(out);
+    }
+    // The VJPs in reverse, as the discrete adjoint takes them.
+    let mut grads = Vec::new();
+    for (&t, rec) in times.iter().zip(&records).rev() {
+        let mut d_y = vec![0.0; n * 9];
+        let mut d_p = vec![0.0; f.n_params()];
+        f.vjp_batch(BatchVjp {
+            at: Batch {
+                t,
+                positions: &y,
+                stride: 10,
+                n,
+            },
+            record: recorded.then_some(rec),
+            d_out: &w,
+            d_positions: &mut d_y,
+            d_stride: 9,
+            d_params: &mut d_p,
+        });
+        grads.push((d_y, d_p));
+    }
+    (outs, grads, profile.take().forward_rows)
+}
+
+#[test]
+fn vjps_from_records_are_bitwise_the_recomputed_ones() {
+    let n = 600; // several chunks
+    let (outs, grads, fresh) = outputs_and_vjps(n, true);
+    let (outs_r, grads_r, fresh_r) = outputs_and_vjps(n, false);
+    assert!(outs == outs_r && grads == grads_r, "records change nothing");
+    assert_eq!(
+        fresh,
+        3 * 600,
+        "with records only the evaluations run forward"
+    );
+    assert_eq!(
+        fresh_r,
+        6 * 600,
+        "without, every VJP runs the forward pass again"
+    );
+}
+
+#[test]
+#[should_panic(expected = "not written by this evaluation")]
+fn a_record_of_another_time_is_refused() {
+    let n = 3;
+    let y = states(n, 5);
+    let mut f = small_field(UNIT_TIME);
+    let mut rec = FieldRecord::default();
+    let at = |t| Batch {
+        t,
+        positions: &y,
+        stride: 10,
+        n,
+    };
+    let mut out = vec![0.0; n * 9];
+    f.eval_batch(&at(0.1), &mut out, Some(&mut rec));
+    let (mut d_y, mut d_p) = (vec![0.0; n * 9], vec![0.0; f.n_params()]);
+    f.vjp_batch(BatchVjp {
+        at: at(0.4),
+        record: Some(&rec),
+        d_out: &out,
+        d_positions: &mut d_y,
+        d_stride: 9,
+        d_params: &mut d_p,
+    });
+}
+
+#[test]
+#[should_panic(expected = "parameters changed")]
+fn a_record_of_older_parameters_is_refused() {
+    let n = 3;
+    let y = states(n, 5);
+    let mut f = small_field(UNIT_TIME);
+    f.set_count(n);
+    let mut rec = FieldRecord::default();
+    let mut out = vec![0.0; n * 9];
+    f.eval_recorded(0.2, &y, &mut out, &mut rec);
+    let v = f.params()[3];
+    f.params_mut()[3] = v; // the same value, but a mutable access is a parameter change
+    let (mut d_y, mut d_p) = (vec![0.0; n * 9], vec![0.0; f.n_params()]);
+    f.vjp_recorded(0.2, &y, &rec, &out, &mut d_y, &mut d_p);
+}
+
+#[test]
+fn the_adjoint_from_a_stage_tape_is_bitwise_the_recomputing_one_within_any_budget() {
+    use evogs_ode::{
+        Checkpointing, Method, StageTape, Stepper, TimeGrid, discrete_adjoint,
+        discrete_adjoint_recorded, integrate_recorded, integrate_trajectory,
+    };
+    let n = 300; // two chunks
+    let y0 = states(n, 41);
+    let mut rng = SplitMix64::new(43);
+    let d_final: Vec<f64> = (0..n * 9).map(|_| 0.1 * rng.uniform(-1.0, 1.0)).collect();
+    // Three midpoint steps: six stage evaluations.
+    let grid = TimeGrid::uniform(0.1, 0.7, 3);
+    let one = small_field(UNIT_TIME).evaluation_bytes(n);
+    let run = |budget: Option<usize>| {
         let mut f = small_field(UNIT_TIME);
         f.set_count(n);
-        f.set_eval_capacity(capacity);
-        f.set_eval_budget(budget);
         let profile = Arc::new(FieldProfile::default());
         f.set_profile(Some(Arc::clone(&profile)));
-        let mut outs = Vec::new();
-        let mut grads = Vec::new();
-        // Evaluate at three times, then take the VJPs in reverse (as the discrete adjoint does),
-        // with a parameter change in between when `interleave` (which must invalidate).
-        for &t in &[0.1, 0.4, 0.7] {
-            let mut out = vec![0.0; n * 9];
-            f.eval(t, &y, &mut out);
-            outs.push(out);
-        }
-        if interleave {
-            let v = f.params()[3];
-            f.params_mut()[3] = v; // same value, but a mutable access invalidates
-        }
-        for &t in &[0.7, 0.4, 0.1] {
-            let mut out = vec![0.0; n * 9];
-            f.eval(t, &y, &mut out); // a repeated evaluation: served from storage when possible
-            outs.push(out);
-            let mut d_y = vec![0.0; n * 9];
-            let mut d_p = vec![0.0; f.n_params()];
-            f.vjp(t, &y, &w, &mut d_y, &mut d_p);
-            grads.push((d_y, d_p));
-        }
-        (outs, grads, profile.take().forward_rows)
+        let mut st = Stepper::new(Method::Midpoint, f.layout());
+        let (mut d_y0, mut d_p) = (vec![0.0; n * 9], vec![0.0; f.n_params()]);
+        let (end, kept) = if let Some(bytes) = budget {
+            f.set_eval_budget(bytes);
+            let mut tape = StageTape::new(f.records_within_budget(n));
+            let traj = integrate_recorded(&mut f, &mut st, &grid, &y0, &mut tape);
+            let mut tape_d = (d_y0.clone(), d_p.clone());
+            discrete_adjoint_recorded(
+                &mut f,
+                &mut st,
+                &traj,
+                &mut tape,
+                &d_final,
+                &mut tape_d.0,
+                &mut tape_d.1,
+            );
+            (d_y0, d_p) = tape_d;
+            (traj.final_state().to_vec(), tape.kept_stages())
+        } else {
+            let traj = integrate_trajectory(&mut f, &mut st, &grid, &y0, Checkpointing::StoreAll);
+            discrete_adjoint(&mut f, &mut st, &traj, &d_final, &mut d_y0, &mut d_p);
+            (traj.final_state().to_vec(), 0)
+        };
+        let rows = profile.take().forward_rows;
+        ((end, d_y0, d_p), kept, rows)
     };
-    let run = |capacity: usize, interleave: bool| {
-        let (outs, grads, _) = run_with(capacity, usize::MAX, interleave);
-        (outs, grads)
-    };
-    let plain = run(1, false);
-    assert!(
-        run(3, false) == plain,
-        "reusing stored evaluations changes nothing"
+    let (plain, _, plain_rows) = run(None);
+    assert_eq!(
+        plain_rows,
+        6 * 3 * 300,
+        "each stage forward, again in the reverse pass, and again in its VJP"
     );
-    assert!(
-        run(3, true) == plain,
-        "parameter changes invalidate stored evaluations"
-    );
-    assert!(run(2, false) == plain, "evictions are handled");
-    // The memory budget: room for two evaluations of n Gaussians keeps two whatever the
-    // capacity, and a budget below one evaluation keeps one; results never change.
-    let (outs3, grads3, fresh3) = run_with(3, usize::MAX, false);
-    let (outs_b, grads_b, fresh_b) =
-        run_with(3, 2 * small_field(UNIT_TIME).evaluation_bytes(n), false);
-    let (outs_0, grads_0, fresh_0) = run_with(3, 0, false);
-    assert!(outs_b == outs3 && grads_b == grads3 && outs_0 == outs3 && grads_0 == grads3);
-    let (_, _, fresh2) = run_with(2, usize::MAX, false);
-    let (_, _, fresh1) = run_with(1, usize::MAX, false);
-    assert_eq!(fresh_b, fresh2, "a budget of two evaluations keeps two");
-    assert_eq!(fresh_0, fresh1, "a budget below one evaluation keeps one");
-    assert!(
-        fresh3 < fresh2 && fresh2 < fresh1,
-        "{fresh3} {fresh2} {fresh1}"
-    );
+    for (budget, want_kept) in [
+        (usize::MAX, 6),
+        (5 * one, 4),
+        (2 * one, 2),
+        (one, 0),
+        (0, 0),
+    ] {
+        let (got, kept, rows) = run(Some(budget));
+        assert!(
+            got == plain,
+            "budget {budget}: the same trajectory and gradients"
+        );
+        assert_eq!(
+            kept,
+            want_kept,
+            "budget of {} evaluations: whole steps",
+            budget / one
+        );
+        // Kept stages run forward once; the others once more in the reverse pass (into a
+        // scratch record that their VJPs read).
+        assert_eq!(rows, ((6 + (6 - kept)) * n) as u64, "budget {budget}");
+    }
 }

@@ -218,7 +218,7 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
         let k = model.anchor_for(t);
         let mut y = model.initial_state(k);
         let grid = model.grid_to(k, t);
-        let injected: Box<dyn VectorField<f32>> = match args.field {
+        let injected: Box<dyn VectorField<f32, Record = ()>> = match args.field {
             FieldSpec::Rotate { omega, center } => Box::new(RigidRotation::new(
                 frame,
                 omega.cast(),

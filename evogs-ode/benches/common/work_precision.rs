@@ -36,7 +36,7 @@ impl Problem {
         }
     }
 
-    pub(crate) fn field(self) -> Box<dyn VectorField<f64>> {
+    pub(crate) fn field(self) -> Box<dyn VectorField<f64, Record = ()>> {
         match self {
             Self::Kepler => Box::new(Kepler::<f64>::default()),
             Self::VanDerPol => Box::new(VanDerPol { mu: 1.0 }),

@@ -56,6 +56,7 @@ impl<T: Real, A: VectorField<T>, B: VectorField<T>> Sum<T, A, B> {
 }
 
 impl<T: Real, A: VectorField<T>, B: VectorField<T>> VectorField<T> for Sum<T, A, B> {
+    type Record = ();
     fn dim(&self) -> usize {
         self.a.dim()
     }
@@ -123,6 +124,7 @@ impl<T: Real, F: VectorField<T>> Scaled<T, F> {
 }
 
 impl<T: Real, F: VectorField<T>> VectorField<T> for Scaled<T, F> {
+    type Record = ();
     fn dim(&self) -> usize {
         self.field.dim()
     }

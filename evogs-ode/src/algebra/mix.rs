@@ -113,6 +113,7 @@ impl<T: Real, A: VectorField<T>, B: VectorField<T>> Mix<T, A, B> {
 }
 
 impl<T: Real, A: VectorField<T>, B: VectorField<T>> VectorField<T> for Mix<T, A, B> {
+    type Record = ();
     fn dim(&self) -> usize {
         self.va.len()
     }

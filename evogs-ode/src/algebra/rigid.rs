@@ -50,6 +50,7 @@ impl<T: Real> RigidRotation<T> {
 }
 
 impl<T: Real> VectorField<T> for RigidRotation<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         self.frame.layout().tangent_len()
     }
@@ -107,6 +108,7 @@ impl<T: Real> Translation<T> {
 }
 
 impl<T: Real> VectorField<T> for Translation<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         self.frame.layout().tangent_len()
     }

@@ -22,6 +22,7 @@ pub struct VanDerPol<T> {
 }
 
 impl<T: Real> VectorField<T> for VanDerPol<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         2
     }
@@ -77,6 +78,7 @@ impl<T: Real> Kepler<T> {
 }
 
 impl<T: Real> VectorField<T> for Kepler<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         4
     }
@@ -132,6 +134,7 @@ impl<T: Real> Default for Lorenz<T> {
 }
 
 impl<T: Real> VectorField<T> for Lorenz<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         3
     }
@@ -179,6 +182,7 @@ impl<T: Real> EulerRates<T> {
 const CYCLIC: [(usize, usize, usize); 3] = [(0, 1, 2), (1, 2, 0), (2, 0, 1)];
 
 impl<T: Real> VectorField<T> for EulerRates<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         3
     }
@@ -219,6 +223,7 @@ pub struct ForcedOscillator<T> {
 }
 
 impl<T: Real> VectorField<T> for ForcedOscillator<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         2
     }
@@ -287,7 +292,7 @@ impl core::error::Error for ProblemError {}
 pub fn by_name(
     name: &str,
     param: &dyn Fn(&str) -> Option<Vec<f64>>,
-) -> Result<Box<dyn VectorField<f64>>, ProblemError> {
+) -> Result<Box<dyn VectorField<f64, Record = ()>>, ProblemError> {
     let scalar = |p: &'static str| match param(p).as_deref() {
         Some(&[v]) => Ok(v),
         _ => Err(ProblemError::Parameter(p)),

@@ -91,6 +91,7 @@ impl<T: Real> RotatingDecay<T> {
 }
 
 impl<T: Real> VectorField<T> for RotatingDecay<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         2
     }

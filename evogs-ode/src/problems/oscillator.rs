@@ -42,6 +42,7 @@ impl<T: Real> HarmonicOscillator<T> {
 }
 
 impl<T: Real> VectorField<T> for HarmonicOscillator<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         2
     }

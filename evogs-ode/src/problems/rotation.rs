@@ -37,6 +37,7 @@ impl<T: Real> Default for ConstantRate<T> {
 }
 
 impl<T: Real> VectorField<T> for ConstantRate<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         3
     }
@@ -104,6 +105,7 @@ impl ProblemK {
 }
 
 impl<T: Real> VectorField<T> for ProblemK {
+    type Record = ();
     fn dim(&self) -> usize {
         3
     }

@@ -31,6 +31,7 @@ impl<T: Real> Default for Logistic<T> {
 }
 
 impl<T: Real> VectorField<T> for Logistic<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         1
     }
@@ -88,6 +89,7 @@ impl<T: Real> Default for CosGrowth<T> {
 }
 
 impl<T: Real> VectorField<T> for CosGrowth<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         1
     }

@@ -39,6 +39,7 @@ impl<T: Real> Default for ConstantTwist<T> {
 }
 
 impl<T: Real> VectorField<T> for ConstantTwist<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         6
     }
@@ -123,6 +124,7 @@ impl<T: Real> ScrewPair<T> {
 }
 
 impl<T: Real> VectorField<T> for ScrewPair<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         6
     }
@@ -203,6 +205,7 @@ fn body_state<T: Real>(y: &[T]) -> [T; 7] {
 }
 
 impl<T: Real> VectorField<T> for PropelledTop<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         9
     }

@@ -41,6 +41,7 @@ impl<T: Real> DissipativePair<T> {
 }
 
 impl<T: Real> VectorField<T> for DissipativePair<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         2
     }

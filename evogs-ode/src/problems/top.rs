@@ -50,6 +50,7 @@ impl<T: Real> RigidBody<T> {
 }
 
 impl<T: Real> VectorField<T> for RigidBody<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         6
     }
@@ -137,6 +138,7 @@ impl<T: Real> Default for SymmetricTop<T> {
 }
 
 impl<T: Real> VectorField<T> for SymmetricTop<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         6
     }
@@ -218,6 +220,7 @@ impl<T: Real> AsymmetricTop<T> {
 }
 
 impl<T: Real> VectorField<T> for AsymmetricTop<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         6
     }

@@ -122,6 +122,49 @@ pub(crate) fn jl_tr_mul<T: Real>(big: Vec3<T>, v: Vec3<T>) -> Vec3<T> {
     v - c * one_minus_cos_over_sq(t2) + big.cross(c) * theta_minus_sin_over_cube(t2)
 }
 
+/// Where the stepper takes the field value of a stage from.
+pub(crate) enum StageValues<'a, T, R> {
+    /// Evaluate the field.
+    Eval,
+    /// Evaluate the field, keeping its record of stage `i` in `records[i]` and, when given,
+    /// the value in `outputs[i·n..(i+1)·n]`.
+    Record {
+        /// The stage values (n each), if kept.
+        outputs: Option<&'a mut [T]>,
+        /// The field's records, one per stage.
+        records: &'a mut [R],
+    },
+    /// The values were recorded: copy stage `i`'s from `outputs[i·n..(i+1)·n]`.
+    Replay {
+        /// The recorded stage values (n each).
+        outputs: &'a [T],
+    },
+}
+
+impl<T: Real, R> StageValues<'_, T, R> {
+    /// Writes the field value of stage `i` at `(t, x)` into `out` (n entries).
+    fn value<F: VectorField<T, Record = R> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        i: usize,
+        t: T,
+        x: &[T],
+        out: &mut [T],
+    ) {
+        let n = out.len();
+        match self {
+            Self::Eval => field.eval(t, x, out),
+            Self::Record { outputs, records } => {
+                field.eval_recorded(t, x, out, &mut records[i]);
+                if let Some(o) = outputs {
+                    o[i * n..(i + 1) * n].copy_from_slice(out);
+                }
+            }
+            Self::Replay { outputs } => out.copy_from_slice(&outputs[i * n..(i + 1) * n]),
+        }
+    }
+}
+
 /// The reverse-pass buffers (allocated on the first [`Stepper::step_vjp`]).
 #[derive(Clone, Debug, Default)]
 struct AdjointBuffers<T> {
@@ -320,23 +363,63 @@ impl<T: Real> Stepper<T> {
         k0: Option<&[T]>,
         upto: usize,
     ) {
+        self.eval_stages_from(field, t, h, y, k0, upto, &mut StageValues::Eval);
+    }
+
+    /// [`eval_stages`](Self::eval_stages) with the field values of the stages taken from
+    /// `values` (evaluated, evaluated and recorded, or replayed from a record).
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the stage loop's inputs and its value source"
+    )]
+    pub(crate) fn eval_stages_from<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y: &[T],
+        k0: Option<&[T]>,
+        upto: usize,
+        values: &mut StageValues<'_, T, F::Record>,
+    ) {
         let n = self.n;
         for i in 0..upto {
             let ti = t + self.c[i] * h;
             if i == 0 {
                 match k0 {
                     Some(k0) => self.k[..n].copy_from_slice(k0),
-                    None => field.eval(ti, y, &mut self.k[..n]),
+                    None => values.value(field, 0, ti, y, &mut self.k[..n]),
                 }
             } else {
                 self.stage_point(i, h, y);
-                field.eval(ti, &self.x, &mut self.k[i * n..(i + 1) * n]);
+                values.value(field, i, ti, &self.x, &mut self.k[i * n..(i + 1) * n]);
                 if i + 1 == self.s && !self.fsal_f.is_empty() {
                     self.fsal_f.copy_from_slice(&self.k[i * n..(i + 1) * n]);
                 }
                 self.dexp_inv(i);
             }
         }
+    }
+
+    /// One [`step`](Self::step) that also keeps, per stage `i`, the field value in
+    /// `outputs[i·n..(i+1)·n]` and the field's record in `records[i]` (for
+    /// [`step_vjp_recorded`](Self::step_vjp_recorded)).
+    pub(crate) fn step_recorded<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y: &mut [T],
+        outputs: &mut [T],
+        records: &mut [F::Record],
+    ) {
+        self.check(field, y);
+        let mut values = StageValues::Record {
+            outputs: Some(outputs),
+            records,
+        };
+        self.eval_stages_from(field, t, h, y, None, self.needed_stages(), &mut values);
+        self.update(h, y);
     }
 
     /// After all stages of an FSAL tableau: `f(t_{n+1}, y_{n+1})`, the next step's `K₀`.

@@ -1,6 +1,6 @@
 //! The exact VJP of one step: [`Stepper::step_vjp`] (formulas in its docs).
 
-use super::{Combo, Stepper, jl_tr_mul};
+use super::{Combo, StageValues, Stepper, jl_tr_mul};
 use crate::chunks::for_chunks2;
 use crate::{Block, VectorField};
 use alloc::vec;
@@ -99,6 +99,60 @@ impl<T: Real> Stepper<T> {
         self.vjp_stages(field, t, h, y_n, upto, lambda, d_params);
     }
 
+    /// [`step_vjp`](Self::step_vjp) of a step taken by
+    /// [`step_recorded`](Self::step_recorded): with `Some((outputs, records))` (what it
+    /// kept) the stage values are copied from `outputs` and each stage's VJP reads its
+    /// record; with `None` the stages are evaluated again into `scratch` (one record per
+    /// stage) and their VJPs read those. Bitwise the same as `step_vjp`.
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "step_vjp's arguments and the recorded stages"
+    )]
+    pub(crate) fn step_vjp_recorded<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y_n: &[T],
+        kept: Option<(&[T], &[F::Record])>,
+        scratch: &mut [F::Record],
+        lambda: &mut [T],
+        d_params: &mut [T],
+    ) {
+        self.check(field, y_n);
+        assert_eq!(
+            lambda.len(),
+            self.n,
+            "cotangent length differs from the layout"
+        );
+        assert_eq!(
+            d_params.len(),
+            field.n_params(),
+            "parameter-gradient length differs from the field"
+        );
+        let upto = self.needed_stages();
+        self.ensure_adjoint_buffers();
+        let records: &[F::Record] = match kept {
+            Some((outputs, records)) => {
+                self.recompute_stages(field, t, h, y_n, upto, &mut StageValues::Replay { outputs });
+                records
+            }
+            None => {
+                let mut values = StageValues::Record {
+                    outputs: None,
+                    records: &mut *scratch,
+                };
+                self.recompute_stages(field, t, h, y_n, upto, &mut values);
+                scratch
+            }
+        };
+        self.adj.kbar.fill(T::ZERO);
+        let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
+        self.update_vjp(&combo, h, lambda);
+        self.add_kbar(&combo, h);
+        self.vjp_stages_with(field, t, h, y_n, upto, lambda, d_params, Some(records));
+    }
+
     /// Starts the reverse pass of a step from `(t, y_n)`: recomputes stages `0..upto`
     /// and clears the stage cotangents `K̄ᵢ`. Then [`vjp_update`](Self::vjp_update) once
     /// per update term that read the stages, then [`vjp_stages`](Self::vjp_stages).
@@ -111,7 +165,7 @@ impl<T: Real> Stepper<T> {
         upto: usize,
     ) {
         self.ensure_adjoint_buffers();
-        self.recompute_stages(field, t, h, y_n, upto);
+        self.recompute_stages(field, t, h, y_n, upto, &mut StageValues::Eval);
         self.adj.kbar.fill(T::ZERO);
     }
 
@@ -155,14 +209,41 @@ impl<T: Real> Stepper<T> {
         lambda: &mut [T],
         d_params: &mut [T],
     ) {
+        self.vjp_stages_with(field, t, h, y_n, upto, lambda, d_params, None);
+    }
+
+    /// [`vjp_stages`](Self::vjp_stages), each stage's field VJP reading `records[i]` when
+    /// given (written by the field at that stage).
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "vjp_stages' arguments and the records"
+    )]
+    fn vjp_stages_with<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y_n: &[T],
+        upto: usize,
+        lambda: &mut [T],
+        d_params: &mut [T],
+        records: Option<&[F::Record]>,
+    ) {
         let n = self.n;
+        let field_vjp =
+            |field: &mut F, i: usize, ti: T, x: &[T], w: &[T], xbar: &mut [T], dp: &mut [T]| {
+                match records {
+                    Some(r) => field.vjp_recorded(ti, x, &r[i], w, xbar, dp),
+                    None => field.vjp(ti, x, w, xbar, dp),
+                }
+            };
         for i in (0..upto).rev() {
             let ti = t + self.c[i] * h;
             self.adj.xbar.fill(T::ZERO);
             if i == 0 {
                 // Ω₀ = 0: K₀ = ω₀ and X₀ = yₙ, so every Jacobian of the stage is the identity.
                 let kbar0 = &self.adj.kbar[..n];
-                field.vjp(ti, y_n, kbar0, &mut self.adj.xbar, d_params);
+                field_vjp(field, 0, ti, y_n, kbar0, &mut self.adj.xbar, d_params);
                 for (l, xb) in lambda.iter_mut().zip(&self.adj.xbar) {
                     *l += *xb;
                 }
@@ -171,14 +252,22 @@ impl<T: Real> Stepper<T> {
             self.stage_point(i, h, y_n);
             if self.euclidean {
                 let kbar_i = &self.adj.kbar[i * n..(i + 1) * n];
-                field.vjp(ti, &self.x, kbar_i, &mut self.adj.xbar, d_params);
+                field_vjp(field, i, ti, &self.x, kbar_i, &mut self.adj.xbar, d_params);
                 for (l, xb) in lambda.iter_mut().zip(&self.adj.xbar) {
                     *l += *xb;
                 }
                 self.couple(i, h, true);
             } else {
                 self.stage_field_cotangent(i);
-                field.vjp(ti, &self.x, &self.adj.w, &mut self.adj.xbar, d_params);
+                field_vjp(
+                    field,
+                    i,
+                    ti,
+                    &self.x,
+                    &self.adj.w,
+                    &mut self.adj.xbar,
+                    d_params,
+                );
                 self.stage_state_vjp(lambda);
                 self.couple(i, h, false);
             }
@@ -196,7 +285,8 @@ impl<T: Real> Stepper<T> {
         }
     }
 
-    /// The forward stages `0..upto` again, keeping the field outputs `Fᵢ` next to `Kᵢ`.
+    /// The forward stages `0..upto` again, keeping the field outputs `Fᵢ` next to `Kᵢ`
+    /// (the field values from `values`).
     fn recompute_stages<F: VectorField<T> + ?Sized>(
         &mut self,
         field: &mut F,
@@ -204,15 +294,16 @@ impl<T: Real> Stepper<T> {
         h: T,
         y: &[T],
         upto: usize,
+        values: &mut StageValues<'_, T, F::Record>,
     ) {
         let n = self.n;
         for i in 0..upto {
             let ti = t + self.c[i] * h;
             if i == 0 {
-                field.eval(ti, y, &mut self.adj.f[..n]);
+                values.value(field, 0, ti, y, &mut self.adj.f[..n]);
             } else {
                 self.stage_point(i, h, y);
-                field.eval(ti, &self.x, &mut self.adj.f[i * n..(i + 1) * n]);
+                values.value(field, i, ti, &self.x, &mut self.adj.f[i * n..(i + 1) * n]);
             }
             self.k[i * n..(i + 1) * n].copy_from_slice(&self.adj.f[i * n..(i + 1) * n]);
             if i > 0 {

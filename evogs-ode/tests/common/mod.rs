@@ -63,6 +63,7 @@ impl<T: Real> CoupledField<T> {
 }
 
 impl<T: Real> VectorField<T> for CoupledField<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         8 * self.count
     }
@@ -176,6 +177,7 @@ impl<T: Real> CoupledSe3Field<T> {
 }
 
 impl<T: Real> VectorField<T> for CoupledSe3Field<T> {
+    type Record = ();
     fn dim(&self) -> usize {
         11 * self.count
     }
@@ -469,6 +471,7 @@ pub(crate) struct Counting<F> {
 }
 
 impl<T: Real, F: VectorField<T>> VectorField<T> for Counting<F> {
+    type Record = ();
     fn dim(&self) -> usize {
         self.inner.dim()
     }

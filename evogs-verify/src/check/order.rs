@@ -134,7 +134,7 @@ fn asymmetric_top(method: Method) -> ConvergenceStudy {
 
 fn study(problem: &str, method: Method) -> Option<ConvergenceStudy> {
     let ns = steps_for(method.order());
-    let mut p: Box<dyn ExactProblem<f64>> = match problem {
+    let mut p: Box<dyn ExactProblem<f64, Record = ()>> = match problem {
         "logistic" => Box::new(Logistic::default()),
         "cos-growth" => Box::new(CosGrowth::default()),
         "harmonic-oscillator" => Box::new(HarmonicOscillator::default()),

@@ -88,7 +88,7 @@ impl Field {
         Ok(v)
     }
 
-    fn with<R>(&self, f: &mut dyn FnMut(&mut dyn VectorField<f64>) -> R) -> R {
+    fn with<R>(&self, f: &mut dyn FnMut(&mut dyn VectorField<f64, Record = ()>) -> R) -> R {
         match self {
             Self::Mlp { n, h, theta } => f(&mut Mlp::new(*n, *h, theta.clone())),
             Self::Linear { n, a } => f(&mut LinearField::new(*n, a.clone())),

@@ -69,7 +69,6 @@ impl TrainConfig {
             width: 32,
             output_scales: [10.0, 1.0, 1.0],
             zero_init_output: true,
-            twist: false,
         };
         // Five trainable waypoints, one midpoint step of at most a quarter of the range from
         // the nearest one (every frame lies within an eighth of the range of a waypoint, so one
@@ -162,7 +161,6 @@ impl TrainConfig {
                 width: 64,
                 output_scales: [10.0, 1.0, 1.0],
                 zero_init_output: true,
-                twist: false,
             },
             loss: LossConfig {
                 lambda_ssim: 0.2,
@@ -559,7 +557,7 @@ mod tests {
             "data.split_time",
             "init.random_points",
             "densify.min_opacity",
-            "loss.rigidity_samples",
+            "loss.lambda_coherence",
             "schedule.curriculum_iters",
         ] {
             assert!(
@@ -608,6 +606,21 @@ mod tests {
             e.contains("dynamics.time_mapping") && e.contains("warped"),
             "{e}"
         );
+        let e = c
+            .merge_toml("[dynamics]\ntime_mapping = \"raw\"\n")
+            .expect_err("the raw time mapping was removed");
+        assert!(
+            e.contains("dynamics.time_mapping") && e.contains("raw"),
+            "{e}"
+        );
+        let old = c
+            .merge_toml("[dynamics]\ntime_mapping = \"normalized\"\n[field]\ntwist = false\n")
+            .expect("a configuration written before the twist key was removed loads");
+        assert_eq!(old, c, "and means the same");
+        let e = c
+            .merge_toml("[field]\ntwist = true\n")
+            .expect_err("the twist velocity was removed");
+        assert!(e.contains("twist"), "{e}");
         let long = c
             .merge_toml("[schedule]\ncurriculum_iters = 2501\n")
             .expect("parses");

@@ -1,9 +1,9 @@
 //! Configuration keys that were removed from evogs, and how a TOML document that still sets
 //! them is read.
 //!
-//! The rigidity, rotation-similarity and isometry priors, the local coherence sampling and
-//! the snapshot waypoints lost every measurement (`docs/results.md` keeps their record) and
-//! were removed. Every stored run configuration of the builds that had them sets their keys
+//! The rigidity, rotation-similarity and isometry priors, the local coherence sampling, the
+//! snapshot waypoints and the twist velocity lost every measurement (`docs/results.md` keeps
+//! their record) and were removed. Every stored run configuration of the builds that had them sets their keys
 //! (at their off values unless a run used them), so a key at its off value is dropped
 //! silently (the run trained without the technique, and trains on without it); a key at any
 //! other value is refused with a message that names it and says it was removed, since the
@@ -37,7 +37,7 @@ fn any_number(v: &toml::Value) -> bool {
 }
 
 /// The removed keys.
-const REMOVED_KEYS: [RemovedKey; 7] = [
+const REMOVED_KEYS: [RemovedKey; 8] = [
     RemovedKey {
         table: "loss",
         key: "lambda_rigidity",
@@ -73,6 +73,12 @@ const REMOVED_KEYS: [RemovedKey; 7] = [
         key: "snapshot_every",
         what: "the snapshot waypoints' refresh interval",
         off: any_number,
+    },
+    RemovedKey {
+        table: "field",
+        key: "twist",
+        what: "the twist velocity",
+        off: not_set,
     },
     RemovedKey {
         table: "dynamics",

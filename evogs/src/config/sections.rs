@@ -116,14 +116,14 @@ impl std::str::FromStr for Preset {
     }
 }
 
-/// The time coordinate the HexPlane sees.
+/// The time coordinate the HexPlane sees: the training time range mapped to `[−1, 1]`, the
+/// only one (the raw time of the released code measured worse, `docs/results.md`; a file
+/// that says `time_mapping = "raw"` is refused).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TimeCoordinate {
     /// The training time range mapped to `[−1, 1]`.
     Normalized,
-    /// Times as they are.
-    Raw,
 }
 
 /// The ODE method in a configuration file: its name (`rk4`), through `Method`'s `FromStr`
@@ -176,7 +176,8 @@ pub struct DynamicsConfig {
     pub waypoints: Waypoints,
     /// Number of anchors (start, …, end of the training time range).
     pub anchors: usize,
-    /// Time coordinate of the HexPlane: `normalized` (`[t_min, t_max] → [−1, 1]`) or `raw`.
+    /// Time coordinate of the HexPlane: `normalized` (`[t_min, t_max] → [−1, 1]`), the only
+    /// one (kept so that stored configurations load).
     pub time_mapping: TimeCoordinate,
 }
 

@@ -13,9 +13,9 @@ use evogs_math::Real;
 /// Gaussians per work chunk.
 pub const CHUNK: usize = 256;
 
-/// What a stored evaluation keeps of one chunk for the VJP: the features and the MLP's
-/// activations (the plane samples are not kept: the VJP reads the same texels again for the
-/// coordinate gradients, so it recomputes them there at little cost).
+/// What a [`FieldRecord`](super::neural::FieldRecord) keeps of one chunk for the VJP: the
+/// features and the MLP's activations (the plane samples are not kept: the VJP reads the same
+/// texels again for the coordinate gradients, so it recomputes them there at little cost).
 #[derive(Debug)]
 pub(super) struct ChunkRecord<T> {
     /// The features (MLP input), `[row][feature]`.

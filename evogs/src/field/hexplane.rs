@@ -31,7 +31,8 @@ pub const TIME_PLANES: [usize; 3] = [2, 4, 5];
 /// Planes that are purely spatial.
 pub const SPACE_PLANES: [usize; 3] = [0, 1, 3];
 
-/// How frame times map to the time coordinate.
+/// How frame times map to the time coordinate (one mapping; an enum so that the checkpoint
+/// format names it).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TimeMapping {
@@ -42,9 +43,6 @@ pub enum TimeMapping {
         /// Time mapped to +1.
         t_max: f64,
     },
-    /// The raw time is the coordinate (the released code: t ∈ [0, 1] uses only the upper
-    /// half of each time axis).
-    Raw,
 }
 
 impl TimeMapping {
@@ -55,7 +53,6 @@ impl TimeMapping {
             Self::Normalized { t_min, t_max } => {
                 (t - T::from_f64(t_min)) * T::from_f64(2.0 / (t_max - t_min)) - T::ONE
             }
-            Self::Raw => t,
         }
     }
 }

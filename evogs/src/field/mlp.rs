@@ -55,7 +55,7 @@ impl<T: Real> MlpActivations<T> {
     }
 }
 
-/// The backward pass's scratch for one batch (shared by every stored evaluation).
+/// The backward pass's scratch for one batch (shared by every record).
 #[derive(Clone, Debug, Default)]
 pub struct MlpWork<T> {
     /// Gradient of the heads' pre-activations (rows × 3W).

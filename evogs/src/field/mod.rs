@@ -13,5 +13,5 @@ pub use chunk::CHUNK;
 pub use gemm::Gemm;
 pub use hexplane::{HexPlane, HexPlaneConfig, TimeMapping};
 pub use mlp::Mlp;
-pub use neural::{NeuralField, NeuralFieldConfig, gaussian_layout};
+pub use neural::{Batch, BatchVjp, FieldRecord, NeuralField, NeuralFieldConfig, gaussian_layout};
 pub use profile::{FieldProfile, FieldTimes};

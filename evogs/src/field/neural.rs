@@ -3,8 +3,7 @@
 //!
 //! Per Gaussian the field maps a position `x` and a time `t` to
 //! `[v (3), ω (3), ṡ (3)] = MLP(HexPlane(x, t))`: the velocity, the **world-frame** angular
-//! velocity and the log-scale rate (with [`NeuralFieldConfig::twist`] the velocity is
-//! `a + ω × (x − c)`, `a` the velocity head). As a vector field on the state layout
+//! velocity and the log-scale rate. As a vector field on the state layout
 //! `[Euclidean(3) position, So3 rotation, Euclidean(3) log-scale]` it depends on the position
 //! only, so its VJP has zero rotation and log-scale components.
 //!
@@ -13,22 +12,37 @@
 //! in chunk order; plane gradients are scattered plane by plane (planes are disjoint parameter
 //! ranges) in Gaussian order. Results are therefore bitwise identical for any thread count.
 //! Buffers are kept between calls and only grow.
+//!
+//! **What the VJP reads from the forward pass.** The VJP needs the features and MLP
+//! activations of the evaluation it differentiates. An evaluation writes them into a
+//! [`FieldRecord`]; with a record the caller owns ([`Batch`] evaluated with
+//! `Some(record)`, the [`VectorField::eval_recorded`] of the ODE stages) the caller hands
+//! the same record back to the VJP ([`BatchVjp::record`], [`VectorField::vjp_recorded`]),
+//! which then runs only the backward pass; without one the VJP runs the forward pass again
+//! into the field's scratch. The field never stores evaluations for later or looks them up:
+//! whoever made the evaluation knows which VJP belongs to it (the displacement of a frame,
+//! the coherence samples, or the stage of an ODE step, where
+//! [`evogs_ode::StageTape`] keeps the records of the last steps within the budget of
+//! [`set_eval_budget`](NeuralField::set_eval_budget) and hands them back in reverse). A
+//! record remembers the time, batch size and parameter generation it was written at, and
+//! the VJP checks them, so a record handed back to the wrong evaluation or after a
+//! parameter change is an error, never a silent wrong gradient. Both ways give bitwise the
+//! same results.
 
 use super::chunk::{CHUNK, ChunkRecord, ChunkWork, decode_chunk_vjp, forward_chunk};
 use super::gemm::Gemm;
 use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
 use super::profile::FieldProfile;
-use eval_cache::Evaluation;
+use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
-use evogs_math::{Par, Vec3};
 use evogs_ode::{Block, StateLayout, VectorField};
 use std::sync::Arc;
 use std::time::Instant;
 
-mod eval_cache;
+mod record;
 
-pub use eval_cache::EVAL_BUDGET_BYTES;
+pub use record::{EVAL_BUDGET_BYTES, FieldRecord};
 
 /// State entries per Gaussian: position (3), quaternion (4), log-scale (3).
 pub const STATE_STRIDE: usize = 10;
@@ -43,6 +57,10 @@ pub fn gaussian_layout(count: usize) -> StateLayout {
 }
 
 /// The configuration of the neural field.
+///
+/// A stored configuration may still name the removed `twist` key (the twist velocity
+/// `v = a + ω × (x − c)`, measured worse: `docs/results.md`); `crate::config` reads it as
+/// it reads every removed key.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NeuralFieldConfig {
     /// The HexPlane shape.
@@ -53,32 +71,61 @@ pub struct NeuralFieldConfig {
     pub output_scales: [f64; 3],
     /// Start the last layer of every head at zero (the initial field is exactly zero, so
     /// switching the dynamics on does not disturb the static fit); the released code uses
-    /// Xavier there too (`false`).
-    #[serde(default)]
+    /// Xavier there too (`false`; the default when a file leaves it out).
     pub zero_init_output: bool,
-    /// Read the velocity head as the translational part `a` of a local twist (an SE(3)
-    /// velocity field): `v(x, t) = a(x, t) + ω(x, t) × (x − c)`, with `ω` the angular-velocity
-    /// head and `c` the centre of the field's box. A rigid motion then has a spatially
-    /// constant `(a, ω)` over the body, and the `ω` that turns the Gaussians is the one that
-    /// moves their centres; the velocity coherence then compares the twists `(a, ω)` of
-    /// neighbours, so it costs nothing for any rigid motion. `false` (the released code):
-    /// `v = a`.
-    #[serde(default)]
-    pub twist: bool,
 }
 
-/// One work item of the batched VJP: chunk index, MLP gradient partial, lookups, sample
-/// gradients, position gradients and the activations of the chunk.
-type VjpItem<'a, T> = (
-    usize,
-    (
-        (
-            &'a mut [T],
-            (&'a mut [Lookup<T>], (&'a mut [T], &'a mut [T])),
-        ),
-        (&'a mut ChunkRecord<T>, &'a mut ChunkWork<T>),
-    ),
-);
+/// `n` positions at one time: position `i` at `positions[i·stride..i·stride + 3]`.
+#[derive(Clone, Copy, Debug)]
+pub struct Batch<'a, T> {
+    /// The time.
+    pub t: T,
+    /// The positions (at least `(n − 1)·stride + 3` entries).
+    pub positions: &'a [T],
+    /// Entries from one position to the next.
+    pub stride: usize,
+    /// Number of positions.
+    pub n: usize,
+}
+
+/// The arguments of [`NeuralField::vjp_batch`].
+#[derive(Debug)]
+pub struct BatchVjp<'a, T> {
+    /// Where the field was evaluated.
+    pub at: Batch<'a, T>,
+    /// The record the evaluation at `at` wrote (with the current parameters), or `None` to
+    /// run the forward pass again.
+    pub record: Option<&'a FieldRecord<T>>,
+    /// The cotangent of the outputs, `n × 9`.
+    pub d_out: &'a [T],
+    /// `∂/∂position` of position `i` is **added** into
+    /// `d_positions[i·d_stride..i·d_stride + 3]`.
+    pub d_positions: &'a mut [T],
+    /// Entries from one position's gradient to the next.
+    pub d_stride: usize,
+    /// `∂/∂θ` is **added** here (`n_params()` entries).
+    pub d_params: &'a mut [T],
+}
+
+/// One chunk's share of a batched VJP: its MLP gradient partial, its lookup records,
+/// sample gradients and position gradients (outputs), the chunk of the forward record and
+/// the chunk's scratch.
+struct ChunkVjp<'a, T> {
+    /// Chunk index.
+    index: usize,
+    /// This chunk's MLP parameter gradient.
+    partial: &'a mut [T],
+    /// The plane lookups of the chunk's rows.
+    lookups: &'a mut [Lookup<T>],
+    /// The gradient of each looked-up sample.
+    d_samples: &'a mut [T],
+    /// The position gradients of the chunk's rows (3 each).
+    d_pos: &'a mut [T],
+    /// The chunk's features and activations from the forward pass.
+    record: &'a ChunkRecord<T>,
+    /// Scratch.
+    work: &'a mut ChunkWork<T>,
+}
 
 /// HexPlane + MLP with all parameters in one flat vector `[planes…, MLP…, output scales]`.
 #[derive(Debug)]
@@ -92,21 +139,16 @@ pub struct NeuralField<T> {
     lookups: Vec<Lookup<T>>,
     d_samples: Vec<T>,
     d_pos: Vec<T>,
-    /// Stored evaluations (activations chunk by chunk), most recent reused first.
-    evals: Vec<Evaluation<T>>,
-    /// How many evaluations are kept (at least 1), within `eval_budget`.
-    capacity: usize,
-    /// Bytes the stored evaluations may take together ([`EVAL_BUDGET_BYTES`] by default).
+    /// The record of evaluations made without one of the caller's, and of the forward pass
+    /// a VJP without a record runs again.
+    scratch: FieldRecord<T>,
+    /// Bytes the records a [`StageTape`](evogs_ode::StageTape) keeps may take together
+    /// ([`EVAL_BUDGET_BYTES`] by default).
     eval_budget: usize,
     /// Scratch per chunk, shared by every evaluation and VJP.
     work: Vec<ChunkWork<T>>,
-    /// Incremented on every parameter change: stored evaluations of older parameters are
-    /// never reused.
+    /// Incremented on every parameter change: a record written before is refused.
     generation: u64,
-    /// The velocity is a twist about the box centre ([`NeuralFieldConfig::twist`]).
-    twist: bool,
-    /// Use counter for the least-recently-used replacement.
-    clock: u64,
     /// Opt-in timing ([`set_profile`](Self::set_profile)).
     profile: Option<Arc<FieldProfile>>,
 }
@@ -145,24 +187,12 @@ impl<T: Gemm> NeuralField<T> {
             lookups: Vec::new(),
             d_samples: Vec::new(),
             d_pos: Vec::new(),
-            evals: Vec::new(),
-            capacity: 1,
+            scratch: FieldRecord::default(),
             eval_budget: EVAL_BUDGET_BYTES,
             work: Vec::new(),
             generation: 0,
-            twist: cfg.twist,
-            clock: 0,
             profile: None,
         }
-    }
-
-    /// The twist reference point `c` (the box centre) when the velocity is a twist
-    /// `v = a + ω × (x − c)`, else `None`.
-    #[must_use]
-    pub fn twist_centre(&self) -> Option<Vec3<T>> {
-        let (lo, hi) = self.hex.aabb();
-        self.twist
-            .then(|| Vec3::from_array(core::array::from_fn(|a| T::from_f64(0.5 * (lo[a] + hi[a])))))
     }
 
     /// The HexPlane layout.
@@ -180,8 +210,8 @@ impl<T: Gemm> NeuralField<T> {
     pub fn params(&self) -> &[T] {
         &self.params
     }
-    /// All parameters, mutable (for the optimiser and the gradient checks). Invalidates the
-    /// stored evaluations.
+    /// All parameters, mutable (for the optimiser and the gradient checks). Records written
+    /// before are refused by the VJP from now on.
     pub fn params_mut(&mut self) -> &mut [T] {
         self.generation += 1;
         &mut self.params
@@ -211,214 +241,138 @@ impl<T: Gemm> NeuralField<T> {
         self.profile = profile;
     }
 
-    /// Evaluates the field at `n` positions (position `i` at `positions[i·stride..i·stride+3]`)
-    /// and time `t`; writes `[v, ω, ṡ]` into `out[i·9..i·9+9]`.
+    /// Evaluates the field at the positions of `at`; writes `[v, ω, ṡ]` of position `i` into
+    /// `out[i·9..i·9+9]`. With `Some(record)` the record is overwritten with what the VJP at
+    /// `at` needs (hand it back in [`BatchVjp::record`]); with `None` the field's scratch
+    /// holds it until the next call.
     ///
     /// # Panics
     /// If the buffers are too short for `n`.
-    pub fn eval_batch(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
-        self.eval_heads(t, positions, stride, n, out);
-        if let Some(c) = self.twist_centre() {
-            for (i, o) in out[..n * N_OUT].chunks_exact_mut(N_OUT).enumerate() {
-                let r = Vec3::from_slice(&positions[i * stride..]) - c;
-                Vec3::from_slice(&o[3..]).cross(r).add_to(o);
-            }
-        }
-    }
-
-    /// The head outputs `[a, ω, ṡ]` (scaled) at `n` positions: [`eval_batch`](Self::eval_batch)
-    /// without the twist's `ω × (x − c)` (the same as `eval_batch` without the twist).
-    ///
-    /// # Panics
-    /// If the buffers are too short for `n`.
-    pub fn eval_heads(&mut self, t: T, positions: &[T], stride: usize, n: usize, out: &mut [T]) {
-        let start = self.profile.as_ref().map(|_| Instant::now());
-        let fresh = self.eval_heads_untimed(t, positions, stride, n, out);
-        if let (Some(p), Some(start)) = (&self.profile, start) {
-            p.add_evaluation(start, if fresh { n } else { 0 });
-        }
-    }
-
-    /// [`eval_heads`](Self::eval_heads) without the profile; `false` when a stored
-    /// evaluation answered.
-    fn eval_heads_untimed(
+    pub fn eval_batch(
         &mut self,
-        t: T,
-        positions: &[T],
-        stride: usize,
-        n: usize,
+        at: &Batch<'_, T>,
         out: &mut [T],
-    ) -> bool {
+        record: Option<&mut FieldRecord<T>>,
+    ) {
+        let n = at.n;
         assert!(
-            n == 0 || (positions.len() >= (n - 1) * stride + 3 && out.len() >= n * N_OUT),
+            n == 0 || (at.positions.len() > (n - 1) * at.stride + 2 && out.len() >= n * N_OUT),
             "batch buffers too short"
         );
-        let n_chunks = n.div_ceil(CHUNK);
-        if let Some(slot) = self.find_eval(t, positions, stride, n) {
-            // Evaluated before at exactly this input: the outputs are the stored unscaled
-            // outputs times the output scales.
-            self.touch(slot);
-            let scales = &self.params[self.hex.n_params() + self.mlp.scales_offset()..];
-            for (out_c, rec) in out[..n * N_OUT]
-                .chunks_mut(CHUNK * N_OUT)
-                .zip(&self.evals[slot].chunks)
-            {
-                for (o, r) in out_c
-                    .chunks_exact_mut(N_OUT)
-                    .zip(rec.act.raw.chunks_exact(N_OUT))
-                {
-                    for k in 0..N_OUT {
-                        o[k] = r[k] * scales[k / 3];
-                    }
-                }
+        let start = self.profile.as_ref().map(|_| Instant::now());
+        match record {
+            Some(rec) => self.forward(at, rec, Some(out)),
+            None => {
+                let mut scratch = std::mem::take(&mut self.scratch);
+                self.forward(at, &mut scratch, Some(out));
+                self.scratch = scratch;
             }
-            return false;
         }
-        let slot = self.claim_eval(t, positions, stride, n);
-        self.touch(slot);
+        if let (Some(p), Some(start)) = (&self.profile, start) {
+            p.add_evaluation(start, n);
+        }
+    }
+
+    /// The forward pass of every chunk of `at` into `rec` (and the outputs into `out` when
+    /// given).
+    fn forward(&mut self, at: &Batch<'_, T>, rec: &mut FieldRecord<T>, out: Option<&mut [T]>) {
+        let n = at.n;
+        let n_chunks = n.div_ceil(CHUNK);
+        rec.prepare(&self.hex, &self.mlp, at.t, n, self.generation);
         self.ensure_work(n_chunks);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
         let profile = self.profile.as_deref();
-        let records = &mut self.evals[slot].chunks[..n_chunks];
-        let works = &mut self.work[..n_chunks];
-        type Item<'a, T> = (
-            usize,
-            (&'a mut [T], (&'a mut ChunkRecord<T>, &'a mut ChunkWork<T>)),
-        );
-        let run = |(ci, (out_c, (rec, work))): Item<'_, T>| {
-            let rows = out_c.len() / N_OUT;
+        let (t, positions, stride) = (at.t, at.positions, at.stride);
+        let run = |(ci, (rec, work)): (usize, (&mut ChunkRecord<T>, &mut ChunkWork<T>)),
+                   out_c: &mut [T]| {
+            let rows = CHUNK.min(n - ci * CHUNK);
             let pos = &positions[ci * CHUNK * stride..];
             forward_chunk(
-                hex, mlp, params, t, pos, stride, rows, rec, work, out_c, profile,
+                hex,
+                mlp,
+                params,
+                t,
+                pos,
+                stride,
+                rows,
+                rec,
+                work,
+                &mut out_c[..rows * N_OUT],
+                profile,
             );
         };
-        match self.par {
-            Par::Seq => out[..n * N_OUT]
-                .chunks_mut(CHUNK * N_OUT)
-                .zip(records.iter_mut().zip(works.iter_mut()))
+        let chunks = rec.chunks_mut(n_chunks).iter_mut();
+        let works = self.work[..n_chunks].iter_mut();
+        match (self.par, out) {
+            (Par::Seq, Some(out)) => chunks
+                .zip(works)
                 .enumerate()
-                .for_each(run),
+                .zip(out[..n * N_OUT].chunks_mut(CHUNK * N_OUT))
+                .for_each(|(item, out_c)| run(item, out_c)),
+            (Par::Seq, None) => chunks.zip(works).enumerate().for_each(|item| {
+                let mut out_c = [T::ZERO; CHUNK * N_OUT];
+                run(item, &mut out_c);
+            }),
             #[cfg(feature = "rayon")]
-            Par::Rayon => {
+            (Par::Rayon, out) => {
                 use rayon::prelude::*;
-                out[..n * N_OUT]
-                    .par_chunks_mut(CHUNK * N_OUT)
-                    .zip(records.par_iter_mut().zip(works.par_iter_mut()))
-                    .enumerate()
-                    .for_each(run);
+                let chunks = rec.chunks_mut(n_chunks).par_iter_mut();
+                let works = self.work[..n_chunks].par_iter_mut();
+                match out {
+                    Some(out) => chunks
+                        .zip(works)
+                        .enumerate()
+                        .zip(out[..n * N_OUT].par_chunks_mut(CHUNK * N_OUT))
+                        .for_each(|(item, out_c)| run(item, out_c)),
+                    None => chunks.zip(works).enumerate().for_each(|item| {
+                        let mut out_c = [T::ZERO; CHUNK * N_OUT];
+                        run(item, &mut out_c);
+                    }),
+                }
             }
         }
-        true
     }
 
     /// VJP of [`eval_batch`](Self::eval_batch): given `d_out` (n × 9), **adds**
-    /// `∂/∂position` into `d_positions[i·d_stride..+3]` and `∂/∂θ` into `d_params`.
+    /// `∂/∂position` into `d_positions` and `∂/∂θ` into `d_params` (see [`BatchVjp`]).
     ///
     /// # Panics
-    /// If the buffers are too short.
-    pub fn vjp_batch(
-        &mut self,
-        t: T,
-        positions: &[T],
-        stride: usize,
-        n: usize,
-        d_out: &[T],
-        d_positions: &mut [T],
-        d_stride: usize,
-        d_params: &mut [T],
-    ) {
-        let twist = self.twist;
-        self.vjp(
-            t,
-            positions,
-            stride,
-            n,
-            d_out,
-            d_positions,
-            d_stride,
-            d_params,
-            twist,
-        );
-    }
-
-    /// VJP of [`eval_heads`](Self::eval_heads): [`vjp_batch`](Self::vjp_batch) with `d_out`
-    /// the cotangent of the heads `[a, ω, ṡ]` (the same as `vjp_batch` without the twist).
-    ///
-    /// # Panics
-    /// If the buffers are too short.
-    pub fn vjp_heads(
-        &mut self,
-        t: T,
-        positions: &[T],
-        stride: usize,
-        n: usize,
-        d_out: &[T],
-        d_positions: &mut [T],
-        d_stride: usize,
-        d_params: &mut [T],
-    ) {
-        self.vjp(
-            t,
-            positions,
-            stride,
-            n,
-            d_out,
-            d_positions,
-            d_stride,
-            d_params,
-            false,
-        );
-    }
-
-    /// The VJP of the heads, plus the twist's `ω × (x − c)` term when `twist` (timed when a
-    /// profile is attached).
-    fn vjp(
-        &mut self,
-        t: T,
-        positions: &[T],
-        stride: usize,
-        n: usize,
-        d_out: &[T],
-        d_positions: &mut [T],
-        d_stride: usize,
-        d_params: &mut [T],
-        twist: bool,
-    ) {
+    /// If the buffers are too short, or if `record` was not written by an evaluation at
+    /// this time and batch size with the current parameters.
+    pub fn vjp_batch(&mut self, args: BatchVjp<'_, T>) {
         let start = self.profile.as_ref().map(|_| Instant::now());
-        let recomputed = self.vjp_untimed(
-            t,
-            positions,
-            stride,
-            n,
-            d_out,
-            d_positions,
-            d_stride,
-            d_params,
-            twist,
-        );
+        let n = args.at.n;
+        let recomputed = args.record.is_none();
+        match args.record {
+            Some(rec) => self.backward(args, rec),
+            None => {
+                let mut scratch = std::mem::take(&mut self.scratch);
+                self.forward(&args.at, &mut scratch, None);
+                self.backward(args, &scratch);
+                self.scratch = scratch;
+            }
+        }
         if let (Some(p), Some(start)) = (&self.profile, start) {
             p.add_vjp(start, n, recomputed);
         }
     }
 
-    /// [`vjp`](Self::vjp) without the profile; `true` when the forward pass was recomputed
-    /// (no stored evaluation of this input).
-    fn vjp_untimed(
-        &mut self,
-        t: T,
-        positions: &[T],
-        stride: usize,
-        n: usize,
-        d_out: &[T],
-        d_positions: &mut [T],
-        d_stride: usize,
-        d_params: &mut [T],
-        twist: bool,
-    ) -> bool {
+    /// The backward pass of [`vjp_batch`](Self::vjp_batch) from the forward record `rec`.
+    fn backward(&mut self, args: BatchVjp<'_, T>, rec: &FieldRecord<T>) {
+        let BatchVjp {
+            at,
+            d_out,
+            d_positions,
+            d_stride,
+            d_params,
+            ..
+        } = args;
+        let (t, positions, stride, n) = (at.t, at.positions, at.stride, at.n);
         assert!(
             d_out.len() >= n * N_OUT && d_params.len() == self.params.len(),
             "vjp buffers have the wrong size"
         );
+        rec.check(t, n, self.generation);
         let n_chunks = n.div_ceil(CHUNK);
         let n_lk = self.hex.n_lookups();
         let ch = self.hex.channels();
@@ -429,52 +383,22 @@ impl<T: Gemm> NeuralField<T> {
         self.d_samples.resize(n * n_lk * ch, T::ZERO);
         self.d_pos.clear();
         self.d_pos.resize(n * 3, T::ZERO);
-        let (slot, stored) = match self.find_eval(t, positions, stride, n) {
-            Some(i) => (i, true),
-            None => (self.claim_eval(t, positions, stride, n), false),
-        };
-        self.touch(slot);
         self.ensure_work(n_chunks);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
         let profile = self.profile.as_deref();
-        let twist = self
-            .twist_centre()
-            .filter(|_| twist)
-            .map(|c| (c, params[hex.n_params() + mlp.scales_offset() + 1]));
-        let records = &mut self.evals[slot].chunks[..n_chunks];
-        let works = &mut self.work[..n_chunks];
-        let run = |(ci, ((partial, (lks, (dss, dp))), (rec, work))): VjpItem<'_, T>| {
-            let rows = lks.len() / n_lk;
-            let pos = &positions[ci * CHUNK * stride..];
-            if !stored {
-                let mut out = [T::ZERO; CHUNK * N_OUT];
-                let out = &mut out[..rows * N_OUT];
-                forward_chunk(
-                    hex, mlp, params, t, pos, stride, rows, rec, work, out, profile,
-                );
-            }
-            let mut d_o = &d_out[ci * CHUNK * N_OUT..ci * CHUNK * N_OUT + rows * N_OUT];
-            // Twist: v = a + ω × r with r = x − c, so for a cotangent w of v,
-            // ∂/∂ω += r × w and ∂/∂x += w × ω (the head VJP below sees the first).
-            let mut d_heads;
-            if let Some((c, _)) = twist {
-                d_heads = [T::ZERO; CHUNK * N_OUT];
-                d_heads[..rows * N_OUT].copy_from_slice(d_o);
-                for (r, dh) in d_heads[..rows * N_OUT].chunks_exact_mut(N_OUT).enumerate() {
-                    let arm = Vec3::from_slice(&pos[r * stride..]) - c;
-                    arm.cross(Vec3::from_slice(dh)).add_to(&mut dh[3..]);
-                }
-                d_o = &d_heads[..rows * N_OUT];
-            }
+        let run = |c: ChunkVjp<'_, T>| {
+            let rows = c.lookups.len() / n_lk;
+            let pos = &positions[c.index * CHUNK * stride..];
+            let d_o = &d_out[c.index * CHUNK * N_OUT..c.index * CHUNK * N_OUT + rows * N_OUT];
             mlp.backward(
                 &params[hex.n_params()..],
-                &rec.features,
+                &c.record.features,
                 rows,
-                &rec.act,
-                &mut work.mlp,
+                &c.record.act,
+                &mut c.work.mlp,
                 d_o,
-                &mut work.d_features,
-                partial,
+                &mut c.work.d_features,
+                c.partial,
                 profile,
             );
             decode_chunk_vjp(
@@ -484,48 +408,37 @@ impl<T: Gemm> NeuralField<T> {
                 pos,
                 stride,
                 rows,
-                &work.d_features,
-                &mut work.samples,
-                lks,
-                dss,
-                dp,
+                &c.work.d_features,
+                &mut c.work.samples,
+                c.lookups,
+                c.d_samples,
+                c.d_pos,
             );
-            if let Some((_, omega_scale)) = twist {
-                let w_v = &d_out[ci * CHUNK * N_OUT..];
-                for (r, d) in dp.chunks_exact_mut(3).take(rows).enumerate() {
-                    let omega = Vec3::from_slice(&rec.act.raw[r * N_OUT + 3..]) * omega_scale;
-                    Vec3::from_slice(&w_v[r * N_OUT..]).cross(omega).add_to(d);
-                }
-            }
         };
+        let records = rec.chunks(n_chunks);
+        let works = &mut self.work[..n_chunks];
         match self.par {
             Par::Seq => self
                 .partials
                 .chunks_mut(n_mlp)
-                .zip(
-                    self.lookups.chunks_mut(CHUNK * n_lk).zip(
-                        self.d_samples
-                            .chunks_mut(CHUNK * n_lk * ch)
-                            .zip(self.d_pos.chunks_mut(CHUNK * 3)),
-                    ),
-                )
-                .zip(records.iter_mut().zip(works.iter_mut()))
+                .zip(self.lookups.chunks_mut(CHUNK * n_lk))
+                .zip(self.d_samples.chunks_mut(CHUNK * n_lk * ch))
+                .zip(self.d_pos.chunks_mut(CHUNK * 3))
+                .zip(records.iter().zip(works.iter_mut()))
                 .enumerate()
+                .map(ChunkVjp::from_zip)
                 .for_each(run),
             #[cfg(feature = "rayon")]
             Par::Rayon => {
                 use rayon::prelude::*;
                 self.partials
                     .par_chunks_mut(n_mlp)
-                    .zip(
-                        self.lookups.par_chunks_mut(CHUNK * n_lk).zip(
-                            self.d_samples
-                                .par_chunks_mut(CHUNK * n_lk * ch)
-                                .zip(self.d_pos.par_chunks_mut(CHUNK * 3)),
-                        ),
-                    )
-                    .zip(records.par_iter_mut().zip(works.par_iter_mut()))
+                    .zip(self.lookups.par_chunks_mut(CHUNK * n_lk))
+                    .zip(self.d_samples.par_chunks_mut(CHUNK * n_lk * ch))
+                    .zip(self.d_pos.par_chunks_mut(CHUNK * 3))
+                    .zip(records.par_iter().zip(works.par_iter_mut()))
                     .enumerate()
+                    .map(ChunkVjp::from_zip)
                     .for_each(run);
             }
         }
@@ -541,7 +454,6 @@ impl<T: Gemm> NeuralField<T> {
             }
         }
         self.scatter_planes(n, &mut d_params[..off]);
-        !stored
     }
 
     /// Adds the stored per-lookup sample gradients into the plane gradients, plane by plane
@@ -590,7 +502,37 @@ impl<T: Gemm> NeuralField<T> {
     }
 }
 
+/// The zipped per-chunk slices of [`NeuralField::vjp_batch`], in the order they are zipped.
+type ChunkZip<'a, T> = (
+    usize,
+    (
+        (
+            ((&'a mut [T], &'a mut [Lookup<T>]), &'a mut [T]),
+            &'a mut [T],
+        ),
+        (&'a ChunkRecord<T>, &'a mut ChunkWork<T>),
+    ),
+);
+
+impl<'a, T> ChunkVjp<'a, T> {
+    /// Names the zipped slices of chunk `index`.
+    fn from_zip(
+        (index, ((((partial, lookups), d_samples), d_pos), (record, work))): ChunkZip<'a, T>,
+    ) -> Self {
+        Self {
+            index,
+            partial,
+            lookups,
+            d_samples,
+            d_pos,
+            record,
+            work,
+        }
+    }
+}
+
 impl<T: Gemm> VectorField<T> for NeuralField<T> {
+    type Record = FieldRecord<T>;
     fn dim(&self) -> usize {
         self.count * N_OUT
     }
@@ -601,11 +543,58 @@ impl<T: Gemm> VectorField<T> for NeuralField<T> {
         self.params.len()
     }
     fn eval(&mut self, t: T, y: &[T], dydt: &mut [T]) {
-        let n = self.count;
-        self.eval_batch(t, y, STATE_STRIDE, n, dydt);
+        let at = self.state_batch(t, y);
+        self.eval_batch(&at, dydt, None);
     }
     fn vjp(&mut self, t: T, y: &[T], w: &[T], d_y: &mut [T], d_params: &mut [T]) {
-        let n = self.count;
-        self.vjp_batch(t, y, STATE_STRIDE, n, w, d_y, N_OUT, d_params);
+        self.vjp_recorded_or_not(t, y, None, w, d_y, d_params);
+    }
+    fn eval_recorded(&mut self, t: T, y: &[T], dydt: &mut [T], record: &mut FieldRecord<T>) {
+        let at = self.state_batch(t, y);
+        self.eval_batch(&at, dydt, Some(record));
+    }
+    fn vjp_recorded(
+        &mut self,
+        t: T,
+        y: &[T],
+        record: &FieldRecord<T>,
+        w: &[T],
+        d_y: &mut [T],
+        d_params: &mut [T],
+    ) {
+        self.vjp_recorded_or_not(t, y, Some(record), w, d_y, d_params);
+    }
+}
+
+impl<T: Gemm> NeuralField<T> {
+    /// The positions of the ODE state `y` (every Gaussian) at `t`.
+    const fn state_batch<'a>(&self, t: T, y: &'a [T]) -> Batch<'a, T> {
+        Batch {
+            t,
+            positions: y,
+            stride: STATE_STRIDE,
+            n: self.count,
+        }
+    }
+
+    /// The [`VectorField`] VJP on the state, with or without a record.
+    fn vjp_recorded_or_not(
+        &mut self,
+        t: T,
+        y: &[T],
+        record: Option<&FieldRecord<T>>,
+        w: &[T],
+        d_y: &mut [T],
+        d_params: &mut [T],
+    ) {
+        let at = self.state_batch(t, y);
+        self.vjp_batch(BatchVjp {
+            at,
+            record,
+            d_out: w,
+            d_positions: d_y,
+            d_stride: N_OUT,
+            d_params,
+        });
     }
 }

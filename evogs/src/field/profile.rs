@@ -22,27 +22,25 @@ pub struct FieldProfile {
     forward_rows: AtomicU64,
     backward_rows: AtomicU64,
     evaluations: AtomicU64,
-    reused: AtomicU64,
     vjps: AtomicU64,
 }
 
 /// What a [`FieldProfile`] accumulated since it was last read.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FieldTimes {
-    /// Wall-clock seconds in batched evaluations (`eval_batch`, `eval_heads`).
+    /// Wall-clock seconds in batched evaluations (`eval_batch`).
     pub forward: f64,
     /// Wall-clock seconds in batched VJPs (including any forward pass they recompute).
     pub vjp: f64,
     /// Seconds inside the MLP's matrix products, summed over threads.
     pub gemm_thread_seconds: f64,
-    /// Rows (Gaussians) the MLP ran forward, in evaluations and in VJPs that recomputed one.
+    /// Rows (Gaussians) the MLP ran forward, in evaluations and in VJPs without a record
+    /// (which run the forward pass again).
     pub forward_rows: u64,
     /// Rows the MLP ran backward.
     pub backward_rows: u64,
-    /// Batched evaluations asked for.
+    /// Batched evaluations.
     pub evaluations: u64,
-    /// Of those, answered from a stored evaluation (no MLP work).
-    pub reused: u64,
     /// Batched VJPs.
     pub vjps: u64,
 }
@@ -71,23 +69,16 @@ impl FieldProfile {
             forward_rows: get(&self.forward_rows),
             backward_rows: get(&self.backward_rows),
             evaluations: get(&self.evaluations),
-            reused: get(&self.reused),
             vjps: get(&self.vjps),
         }
     }
 
-    /// Adds the wall time of one batched evaluation since `start`; `fresh_rows` rows ran
-    /// through the MLP (0 when a stored evaluation answered).
-    pub(super) fn add_evaluation(&self, start: Instant, fresh_rows: usize) {
+    /// Adds the wall time of one batched evaluation of `rows` rows since `start`.
+    pub(super) fn add_evaluation(&self, start: Instant, rows: usize) {
         self.forward_nanos
             .fetch_add(nanos_since(start), Ordering::Relaxed);
         self.evaluations.fetch_add(1, Ordering::Relaxed);
-        if fresh_rows == 0 {
-            self.reused.fetch_add(1, Ordering::Relaxed);
-        } else {
-            self.forward_rows
-                .fetch_add(fresh_rows as u64, Ordering::Relaxed);
-        }
+        self.forward_rows.fetch_add(rows as u64, Ordering::Relaxed);
     }
 
     /// Adds the wall time of one batched VJP of `rows` rows since `start`; with `recomputed`
@@ -148,19 +139,16 @@ mod tests {
     fn counters_accumulate_and_reset() {
         let p = FieldProfile::default();
         p.add_evaluation(Instant::now(), 10);
-        p.add_evaluation(Instant::now(), 0);
+        p.add_evaluation(Instant::now(), 3);
         p.add_vjp(Instant::now(), 7, true);
+        p.add_vjp(Instant::now(), 2, false);
         {
             let mut t = GemmTimer::new(Some(&p));
             t.time(|| std::thread::sleep(std::time::Duration::from_millis(2)));
         }
         let got = p.take();
-        assert_eq!(
-            (got.evaluations, got.reused, got.vjps),
-            (2, 1, 1),
-            "call counts"
-        );
-        assert_eq!((got.forward_rows, got.backward_rows), (17, 7), "rows");
+        assert_eq!((got.evaluations, got.vjps), (2, 2), "call counts");
+        assert_eq!((got.forward_rows, got.backward_rows), (20, 9), "rows");
         assert!(got.gemm_thread_seconds >= 0.002, "timed product");
         assert_eq!(p.take(), FieldTimes::default(), "reset by take");
         let mut off = GemmTimer::new(None);

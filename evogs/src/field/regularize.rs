@@ -138,7 +138,15 @@ mod tests {
             resolution: [3, 4, 3, 5],
             multires: vec![1],
         };
-        let hex = HexPlane::new(&cfg, [-1.0; 3], [1.0; 3], TimeMapping::Raw);
+        let hex = HexPlane::new(
+            &cfg,
+            [-1.0; 3],
+            [1.0; 3],
+            TimeMapping::Normalized {
+                t_min: -1.0,
+                t_max: 1.0,
+            },
+        );
         let mut rng = SplitMix64::new(3);
         let mut x: Vec<f64> = (0..hex.n_params()).map(|_| rng.uniform(0.0, 2.0)).collect();
         let w = PlaneRegWeights {

@@ -46,7 +46,6 @@ impl ModelFrame {
             hi[a] += m;
         }
         let time = match cfg.dynamics.time_mapping {
-            TimeCoordinate::Raw => TimeMapping::Raw,
             TimeCoordinate::Normalized => TimeMapping::Normalized {
                 t_min: t0,
                 t_max: t1,

@@ -9,8 +9,8 @@
 //! normalisation VJP.
 
 use super::{Model, ModelGrad, Motion, Waypoints};
-use crate::field::Gemm;
 use crate::field::neural::STATE_STRIDE;
+use crate::field::{Batch, BatchVjp, FieldRecord, Gemm};
 use evogs_math::activation::normalize_quat_vjp;
 use evogs_math::so3::log_quat;
 use evogs_math::update::{
@@ -18,8 +18,8 @@ use evogs_math::update::{
 };
 use evogs_math::{Quat, Real, Vec3};
 use evogs_ode::{
-    Checkpointing, Stepper, TimeGrid, Trajectory, VectorField, discrete_adjoint, integrate,
-    integrate_trajectory,
+    StageTape, Stepper, TimeGrid, Trajectory, VectorField, discrete_adjoint,
+    discrete_adjoint_recorded, integrate, integrate_recorded,
 };
 use evogs_splat::{Splats, SplatsGrad};
 
@@ -31,6 +31,11 @@ const TANGENT: usize = 9;
 pub const MAX_EXTRAPOLATION: f64 = 10.0;
 
 /// What [`Model::backward_at`] needs from the forward pass of one frame.
+///
+/// The field's forward records (its activations, for the field VJPs) stay in the model,
+/// which keeps those of the last recording only (one frame's worth of memory, reused);
+/// `recording` names it. A tape whose recording was replaced by a later frame is still
+/// valid: its backward pass evaluates the field again (bitwise the same gradient).
 #[derive(Debug)]
 pub enum FrameTape<T> {
     /// The canonical Gaussians were rendered as they are.
@@ -41,6 +46,8 @@ pub enum FrameTape<T> {
         anchor: usize,
         /// The stored states.
         trajectory: Trajectory<T>,
+        /// The recording that holds the stages' field records.
+        recording: u64,
     },
     /// Displaced by the network outputs `out` (N × 9) evaluated at time `t`.
     Deformation {
@@ -48,7 +55,31 @@ pub enum FrameTape<T> {
         t: T,
         /// Network outputs `[Δp, Δω, Δs]`.
         out: Vec<T>,
+        /// The recording that holds the evaluation's field record.
+        recording: u64,
     },
+}
+
+/// The field records of the model's last recording: the stages of an integration (the
+/// last steps that fit the field's memory budget) or one displacement evaluation.
+#[derive(Debug)]
+pub(super) struct FrameRecords<T> {
+    /// Which recording the records belong to (incremented for every new one).
+    serial: u64,
+    /// The stage records of the last integration.
+    stages: StageTape<T, FieldRecord<T>>,
+    /// The record of the last displacement.
+    displacement: FieldRecord<T>,
+}
+
+impl<T: Gemm> Default for FrameRecords<T> {
+    fn default() -> Self {
+        Self {
+            serial: 0,
+            stages: StageTape::new(0),
+            displacement: FieldRecord::default(),
+        }
+    }
 }
 
 /// Packs anchor parameters into ODE states (quaternions normalised).
@@ -176,15 +207,7 @@ impl<T: Gemm> Model<T> {
                 let mut y0 = Vec::with_capacity(n * STATE_STRIDE);
                 pack_state(m, s, q, &mut y0);
                 let grid = self.grid(k, t);
-                let mut st = self.stepper(stepper);
-                let trajectory = integrate_trajectory(
-                    &mut self.field,
-                    &mut st,
-                    &grid,
-                    &y0,
-                    Checkpointing::StoreAll,
-                );
-                *stepper = Some(st);
+                let (trajectory, recording) = self.integrate_recorded(&grid, &y0, stepper);
                 let y = trajectory.final_state();
                 for i in 0..n {
                     let (p, q, s) = unpack(y, i);
@@ -195,6 +218,7 @@ impl<T: Gemm> Model<T> {
                 FrameTape::Velocity {
                     anchor: k,
                     trajectory,
+                    recording,
                 }
             }
             Motion::Deformation => {
@@ -205,7 +229,16 @@ impl<T: Gemm> Model<T> {
                     .flat_map(|v| v.to_array())
                     .collect();
                 let mut net = vec![T::ZERO; n * TANGENT];
-                self.field.eval_batch(tf, &pos, 3, n, &mut net);
+                let at = Batch {
+                    t: tf,
+                    positions: &pos,
+                    stride: 3,
+                    n,
+                };
+                self.records.serial += 1;
+                let recording = self.records.serial;
+                self.field
+                    .eval_batch(&at, &mut net, Some(&mut self.records.displacement));
                 for i in 0..n {
                     let o = &net[i * TANGENT..];
                     out.means[i] += Vec3::from_slice(o);
@@ -216,7 +249,11 @@ impl<T: Gemm> Model<T> {
                     );
                     out.log_scales[i] += Vec3::from_slice(&o[6..]);
                 }
-                FrameTape::Deformation { t: tf, out: net }
+                FrameTape::Deformation {
+                    t: tf,
+                    out: net,
+                    recording,
+                }
             }
             Motion::Static => FrameTape::Static,
         }
@@ -249,7 +286,11 @@ impl<T: Gemm> Model<T> {
                     c.quats[i] = c.quats[i] + d.quats[i];
                 }
             }
-            FrameTape::Velocity { anchor, trajectory } => {
+            FrameTape::Velocity {
+                anchor,
+                trajectory,
+                recording,
+            } => {
                 let y = trajectory.final_state();
                 let mut d_final = vec![T::ZERO; n * TANGENT];
                 for i in 0..n {
@@ -259,9 +300,9 @@ impl<T: Gemm> Model<T> {
                     left_cotangent_from_ambient(q, d.quats[i]).write_to(&mut o[3..]);
                     d.log_scales[i].write_to(&mut o[6..]);
                 }
-                self.adjoint_to_anchor(*anchor, trajectory, &d_final, stepper, grad);
+                self.adjoint_to_anchor(*anchor, trajectory, *recording, &d_final, stepper, grad);
             }
-            FrameTape::Deformation { t, out } => {
+            FrameTape::Deformation { t, out, recording } => {
                 let mut d_net = vec![T::ZERO; n * TANGENT];
                 for i in 0..n {
                     let q0 = self.canonical.quats[i];
@@ -287,8 +328,21 @@ impl<T: Gemm> Model<T> {
                     .flat_map(|v| v.to_array())
                     .collect();
                 let mut d_pos = vec![T::ZERO; n * 3];
-                self.field
-                    .vjp_batch(*t, &pos, 3, n, &d_net, &mut d_pos, 3, &mut grad.field);
+                let record =
+                    (*recording == self.records.serial).then_some(&self.records.displacement);
+                self.field.vjp_batch(BatchVjp {
+                    at: Batch {
+                        t: *t,
+                        positions: &pos,
+                        stride: 3,
+                        n,
+                    },
+                    record,
+                    d_out: &d_net,
+                    d_positions: &mut d_pos,
+                    d_stride: 3,
+                    d_params: &mut grad.field,
+                });
                 for i in 0..n {
                     grad.canonical.means[i] += Vec3::from_slice(&d_pos[i * 3..]);
                 }
@@ -296,12 +350,35 @@ impl<T: Gemm> Model<T> {
         }
     }
 
-    /// Runs the discrete adjoint of `trajectory` (integrated from anchor `k`) for the final
-    /// cotangent `d_final` and adds the anchor and field gradients into `grad`.
+    /// Integrates from `y0` over `grid` as a new recording: the field records of the last
+    /// steps that fit the field's memory budget are kept for the adjoint. Returns the
+    /// trajectory and the recording's serial number.
+    fn integrate_recorded(
+        &mut self,
+        grid: &TimeGrid<T>,
+        y0: &[T],
+        stepper: &mut Option<Stepper<T>>,
+    ) -> (Trajectory<T>, u64) {
+        let mut st = self.stepper(stepper);
+        let budget = self.field.records_within_budget(self.len());
+        if self.records.stages.capacity() != budget {
+            self.records.stages.set_capacity(budget);
+        }
+        self.records.serial += 1;
+        let trajectory =
+            integrate_recorded(&mut self.field, &mut st, grid, y0, &mut self.records.stages);
+        *stepper = Some(st);
+        (trajectory, self.records.serial)
+    }
+
+    /// Runs the discrete adjoint of `trajectory` (integrated from anchor `k` as
+    /// `recording`) for the final cotangent `d_final` and adds the anchor and field
+    /// gradients into `grad`.
     fn adjoint_to_anchor(
         &mut self,
         k: usize,
         trajectory: &Trajectory<T>,
+        recording: u64,
         d_final: &[T],
         stepper: &mut Option<Stepper<T>>,
         grad: &mut ModelGrad<T>,
@@ -309,14 +386,26 @@ impl<T: Gemm> Model<T> {
         let n = self.len();
         let mut d_y0 = vec![T::ZERO; n * TANGENT];
         let mut st = self.stepper(stepper);
-        discrete_adjoint(
-            &mut self.field,
-            &mut st,
-            trajectory,
-            d_final,
-            &mut d_y0,
-            &mut grad.field,
-        );
+        if recording == self.records.serial {
+            discrete_adjoint_recorded(
+                &mut self.field,
+                &mut st,
+                trajectory,
+                &mut self.records.stages,
+                d_final,
+                &mut d_y0,
+                &mut grad.field,
+            );
+        } else {
+            discrete_adjoint(
+                &mut self.field,
+                &mut st,
+                trajectory,
+                d_final,
+                &mut d_y0,
+                &mut grad.field,
+            );
+        }
         *stepper = Some(st);
         let y0 = trajectory.initial_state();
         let raw: Vec<Quat<T>> = self.anchor_state(k).2.to_vec();
@@ -357,15 +446,7 @@ impl<T: Gemm> Model<T> {
         let mut y0 = Vec::with_capacity(n * STATE_STRIDE);
         pack_state(m, s, q, &mut y0);
         let grid = self.grid(k, self.anchor_times[k + 1]);
-        let mut st = self.stepper(stepper);
-        let trajectory = integrate_trajectory(
-            &mut self.field,
-            &mut st,
-            &grid,
-            &y0,
-            Checkpointing::StoreAll,
-        );
-        *stepper = Some(st);
+        let (trajectory, recording) = self.integrate_recorded(&grid, &y0, stepper);
         let y = trajectory.final_state();
         #[allow(clippy::cast_precision_loss, reason = "counts are small")]
         let w = T::from_f64(weight / n as f64);
@@ -393,7 +474,7 @@ impl<T: Gemm> Model<T> {
             let amb = ambient_from_left_cotangent(qa, delta * (-T::TWO * w));
             gq[i] = gq[i] + normalize_quat_vjp(target.quats[i], amb);
         }
-        self.adjoint_to_anchor(k, &trajectory, &d_final, stepper, grad);
+        self.adjoint_to_anchor(k, &trajectory, recording, &d_final, stepper, grad);
         #[allow(clippy::cast_precision_loss, reason = "counts are small")]
         let mean = loss * weight / n as f64;
         mean

@@ -20,6 +20,7 @@ pub mod retain;
 
 pub use anchors::{AnchorState, Waypoints, anchor_for_time};
 pub use build::{ModelFrame, build_model};
+use dynamics::FrameRecords;
 pub use dynamics::FrameTape;
 
 use crate::field::{Gemm, NeuralField};
@@ -86,6 +87,9 @@ pub struct Model<T> {
     pub max_step: f64,
     /// Whether the dynamics are switched on (off during the static warm-up).
     pub dynamics_active: bool,
+    /// The field's forward records of the last frame or anchor segment, for its backward
+    /// pass.
+    records: FrameRecords<T>,
 }
 
 /// Borrowed positions, log-scales and raw quaternions of one anchor.
@@ -102,25 +106,6 @@ pub struct ModelGrad<T> {
     pub anchors: Vec<AnchorState<T>>,
     /// Field parameters.
     pub field: Vec<T>,
-}
-
-/// How many field evaluations to keep for the adjoint: every stage of the longest integration
-/// a frame or an anchor segment needs (each holds the field's activations for every
-/// Gaussian; the field keeps fewer when they would exceed its memory budget, and the adjoint
-/// recomputes the others).
-fn stored_evaluations(method: Method, max_step: f64, anchor_times: &[f64]) -> usize {
-    let longest = anchor_times
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(0.0, f64::max)
-        .max(if anchor_times.len() == 1 { 1.0 } else { 0.0 });
-    #[allow(
-        clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        reason = "small positive step counts"
-    )]
-    let steps = (longest / max_step.max(1e-9)).ceil().max(1.0) as usize;
-    method.stages() * steps
 }
 
 impl<T: Gemm> Model<T> {
@@ -146,8 +131,6 @@ impl<T: Gemm> Model<T> {
             quats: canonical.quats.clone(),
         };
         let anchors = vec![copy; anchor_times.len().saturating_sub(1)];
-        let mut field = field;
-        field.set_eval_capacity(stored_evaluations(method, max_step, &anchor_times));
         Self {
             canonical,
             anchor_times,
@@ -158,6 +141,7 @@ impl<T: Gemm> Model<T> {
             method,
             max_step,
             dynamics_active: false,
+            records: FrameRecords::default(),
         }
     }
 

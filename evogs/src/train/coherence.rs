@@ -1,5 +1,4 @@
-//! Velocity coherence (`docs/losses.md` §7, the anisotropic kNN form of the released code),
-//! and its twist form for the twist velocity.
+//! Velocity coherence (`docs/losses.md` §7, the anisotropic kNN form of the released code).
 //!
 //! For a sample of M Gaussians at their (detached) positions `x_i` with velocities
 //! `v_i = v(x_i, t)`: the k nearest neighbours of each sample point within the sample,
@@ -11,12 +10,7 @@
 //! L = Σ w_ij c_ij / (Σ w_ij + 1e-8)
 //! ```
 //!
-//! A rigid rotation has `Δv = ω × (x_i − x_j) ≠ 0`, so this form penalises turning. With
-//! the twist velocity `v = a + ω × (x − c)` a rigid motion is a constant `(a, ω)`, and the
-//! twist form ([`twist_coherence_loss`]) compares the twists instead:
-//! `c_ij = |Δa_⊥|² + 0.2·|Δa_∥|² + ℓ²·|Δω|²`, with `ℓ` a lever arm that puts `Δω` in
-//! velocity units (the caller passes the RMS distance of the sample from `c`). It costs
-//! nothing for any rigid motion and penalises bending and tearing alike.
+//! A rigid rotation has `Δv = ω × (x_i − x_j) ≠ 0`, so this form penalises turning.
 //!
 //! The weights depend only on the detached positions, so the gradient flows to the
 //! velocities (and from there to the field's parameters) only.
@@ -87,43 +81,6 @@ pub fn coherence_loss(
     sum_wc / denom
 }
 
-/// The twist coherence of `(a_i, ω_i)` at `positions[i]` with lever arm `lever`; adds
-/// `∂L/∂a_i` into `d_a[i]` and `∂L/∂ω_i` into `d_omega[i]`.
-///
-/// # Panics
-/// If the slices differ in length.
-#[must_use]
-pub fn twist_coherence_loss(
-    positions: &[[f64; 3]],
-    a: &[[f64; 3]],
-    omega: &[[f64; 3]],
-    lever: f64,
-    k: usize,
-    d_a: &mut [[f64; 3]],
-    d_omega: &mut [[f64; 3]],
-) -> f64 {
-    let m = positions.len();
-    assert!(
-        a.len() == m && omega.len() == m && d_a.len() == m && d_omega.len() == m,
-        "twist coherence: length mismatch"
-    );
-    if m < 2 {
-        return 0.0;
-    }
-    let (pairs, denom) = neighbour_pairs(positions, k);
-    let l2 = lever * lever;
-    let mut sum_wc = 0.0;
-    for &(i, j, w, r) in &pairs {
-        let (ca, ga) = anisotropic_cost(&diff(a, i, j), &r);
-        let dw = diff(omega, i, j);
-        let cw = l2 * dw.iter().map(|x| x * x).sum::<f64>();
-        sum_wc += w * (ca + cw);
-        scatter_pair(d_a, i, j, w / denom, &ga);
-        scatter_pair(d_omega, i, j, 2.0 * l2 * w / denom, &dw);
-    }
-    sum_wc / denom
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -182,37 +139,7 @@ mod tests {
     }
 
     #[test]
-    fn twist_gradient_matches_central_differences() {
-        let mut rng = SplitMix64::new(2);
-        let m = 30;
-        let mut r3 = |s: f64| [s * rng.normal(), s * rng.normal(), s * rng.normal()];
-        let pos: Vec<[f64; 3]> = (0..m).map(|_| r3(0.7)).collect();
-        let a: Vec<[f64; 3]> = (0..m).map(|_| r3(1.0)).collect();
-        let om: Vec<[f64; 3]> = (0..m).map(|_| r3(1.0)).collect();
-        let lever = 0.8;
-        let (mut da, mut dw) = (vec![[0.0; 3]; m], vec![[0.0; 3]; m]);
-        let l = twist_coherence_loss(&pos, &a, &om, lever, COHERENCE_K, &mut da, &mut dw);
-        assert!(l > 0.0, "random twists are incoherent");
-        let mut x: Vec<f64> = a.iter().chain(&om).flatten().copied().collect();
-        let mut num = vec![0.0; x.len()];
-        central_gradient(
-            |v: &[f64]| {
-                let t: Vec<[f64; 3]> = v.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
-                let mut s1 = vec![[0.0; 3]; m];
-                let mut s2 = vec![[0.0; 3]; m];
-                twist_coherence_loss(&pos, &t[..m], &t[m..], lever, COHERENCE_K, &mut s1, &mut s2)
-            },
-            &mut x,
-            &mut num,
-        );
-        let g: Vec<f64> = da.iter().chain(&dw).flatten().copied().collect();
-        GradCheck::new(1e-9, 1e-7)
-            .check(&g, &num)
-            .assert_passed("twist coherence gradient");
-    }
-
-    #[test]
-    fn a_rigid_rotation_costs_nothing_as_a_twist_but_does_as_a_velocity() {
+    fn a_rigid_rotation_costs() {
         let mut rng = SplitMix64::new(3);
         let m = 40;
         let pos: Vec<[f64; 3]> = (0..m)
@@ -227,37 +154,9 @@ mod tests {
             .collect();
         let mut d = vec![[0.0; 3]; m];
         let as_velocity = coherence_loss(&pos, &vel, COHERENCE_K, &mut d);
-        let (mut da, mut dw) = (vec![[0.0; 3]; m], vec![[0.0; 3]; m]);
-        let as_twist = twist_coherence_loss(
-            &pos,
-            &vec![a0; m],
-            &vec![w0; m],
-            1.0,
-            COHERENCE_K,
-            &mut da,
-            &mut dw,
-        );
         assert!(
             as_velocity > 0.1,
             "velocity form penalises turning: {as_velocity}"
-        );
-        assert!(as_twist.abs() < 1e-15, "twist form: {as_twist}");
-        assert!(da.iter().chain(&dw).flatten().all(|g| g.abs() < 1e-15));
-        let mut bent = vec![w0; m];
-        bent[0][2] += 1.0;
-        let (mut da, mut dw) = (vec![[0.0; 3]; m], vec![[0.0; 3]; m]);
-        let l = twist_coherence_loss(
-            &pos,
-            &vec![a0; m],
-            &bent,
-            1.0,
-            COHERENCE_K,
-            &mut da,
-            &mut dw,
-        );
-        assert!(
-            l > 0.0,
-            "a Gaussian turning apart from its neighbours costs"
         );
     }
 }

@@ -4,8 +4,7 @@
 //! ```text
 //! L = (1 − λ)·L1(I, Î) + λ·(1 − SSIM(I, Î))            photometric, I = render(Gaussians(t))
 //!   + w_tv·TV + w_t·TimeSmooth + w_l1·L1Time            HexPlane regularisers (dynamics on)
-//!   + λ_coh·L_coh(v at sampled Gaussians, t)            velocity coherence (velocity motion;
-//!                                                        of the twist (a, ω) with the twist)
+//!   + λ_coh·L_coh(v at sampled Gaussians, t)            velocity coherence (velocity motion)
 //!   + λ_anchor·L_anchor(segment k)                      anchor loss (trainable waypoints)
 //! ```
 //!
@@ -13,12 +12,12 @@
 //! the Gaussians at t → the discrete adjoint of the ODE (or the displacement VJP) → anchors,
 //! canonical Gaussians and every field parameter.
 
-use crate::field::Gemm;
 use crate::field::regularize::{PlaneRegWeights, plane_regularizers};
+use crate::field::{Batch, BatchVjp, FieldRecord, Gemm};
 use crate::model::{Model, ModelGrad, Motion, Waypoints};
-use crate::train::coherence::{COHERENCE_K, coherence_loss, twist_coherence_loss};
+use crate::train::coherence::{COHERENCE_K, coherence_loss};
 use crate::train::render_pass::{RenderTimes, render_backward, render_forward};
-use evogs_math::{Par, Real, Vec3};
+use evogs_math::{Par, Real};
 use evogs_ode::Stepper;
 use evogs_splat::loss::photometric_loss_and_grad;
 use evogs_splat::ssim::SsimWorkspace;
@@ -370,8 +369,8 @@ pub fn regularizers_and_grad<T: Gemm>(
     losses.timings.extra += clock.elapsed().as_secs_f64();
 }
 
-/// The velocity-coherence term at the sampled (detached) positions (its twist form when the
-/// field's velocity is a twist), with its gradient into the field parameters.
+/// The velocity-coherence term at the sampled (detached) positions, with its gradient into
+/// the field parameters.
 fn coherence_term<T: Gemm>(
     model: &mut Model<T>,
     t: f64,
@@ -386,61 +385,35 @@ fn coherence_term<T: Gemm>(
         .map(|&v| T::from_f64(v))
         .collect();
     let mut out = vec![T::ZERO; 9 * m];
-    let tt = T::from_f64(t);
-    // With the twist velocity v = a + ω × (x − c) the loss compares the heads (a, ω), so it
-    // reads and differentiates them directly (no twist term); otherwise the velocity v.
-    let twist = model.field.twist_centre().map(|c| c.cast::<f64>());
-    if twist.is_some() {
-        model.field.eval_heads(tt, &pos, 3, m, &mut out);
-    } else {
-        model.field.eval_batch(tt, &pos, 3, m, &mut out);
-    }
-    let head = |o: usize| -> Vec<[f64; 3]> {
-        out.chunks(9)
-            .map(|c| [c[o].to_f64(), c[o + 1].to_f64(), c[o + 2].to_f64()])
-            .collect()
+    let at = Batch {
+        t: T::from_f64(t),
+        positions: &pos,
+        stride: 3,
+        n: m,
     };
-    let mut d_out = vec![T::ZERO; 9 * m];
-    let mut put = |o: usize, d: &[[f64; 3]]| {
-        for (i, d) in d.iter().enumerate() {
-            for a in 0..3 {
-                d_out[9 * i + o + a] = T::from_f64(s.lambda_coherence * d[a]);
-            }
-        }
-    };
+    let mut record = FieldRecord::default();
+    model.field.eval_batch(&at, &mut out, Some(&mut record));
+    let v: Vec<[f64; 3]> = out
+        .chunks(9)
+        .map(|c| [c[0].to_f64(), c[1].to_f64(), c[2].to_f64()])
+        .collect();
     let mut d_v = vec![[0.0; 3]; m];
-    let l = if let Some(c) = twist {
-        #[allow(clippy::cast_precision_loss, reason = "sample counts are small")]
-        let lever = (s
-            .coherence_points
-            .iter()
-            .map(|x| (Vec3::from_array(*x) - c).norm_squared())
-            .sum::<f64>()
-            / m as f64)
-            .sqrt();
-        let mut d_omega = vec![[0.0; 3]; m];
-        let l = twist_coherence_loss(
-            &s.coherence_points,
-            &head(0),
-            &head(3),
-            lever,
-            COHERENCE_K,
-            &mut d_v,
-            &mut d_omega,
-        );
-        put(3, &d_omega);
-        l
-    } else {
-        coherence_loss(&s.coherence_points, &head(0), COHERENCE_K, &mut d_v)
-    };
-    put(0, &d_v);
-    let mut d_pos = vec![T::ZERO; 3 * m];
-    let f = &mut model.field;
-    if twist.is_some() {
-        f.vjp_heads(tt, &pos, 3, m, &d_out, &mut d_pos, 3, &mut grad.field);
-    } else {
-        f.vjp_batch(tt, &pos, 3, m, &d_out, &mut d_pos, 3, &mut grad.field);
+    let l = coherence_loss(&s.coherence_points, &v, COHERENCE_K, &mut d_v);
+    let mut d_out = vec![T::ZERO; 9 * m];
+    for (i, d) in d_v.iter().enumerate() {
+        for a in 0..3 {
+            d_out[9 * i + a] = T::from_f64(s.lambda_coherence * d[a]);
+        }
     }
+    let mut d_pos = vec![T::ZERO; 3 * m];
+    model.field.vjp_batch(BatchVjp {
+        at,
+        record: Some(&record),
+        d_out: &d_out,
+        d_positions: &mut d_pos,
+        d_stride: 3,
+        d_params: &mut grad.field,
+    });
     s.lambda_coherence * l
 }
 

@@ -315,7 +315,6 @@ pub fn run_bench(args: &BenchArgs, rep: &mut dyn Reporter) -> Result<BenchReport
                 losses,
                 field: FieldWork {
                     evaluations: last.evaluations,
-                    reused: last.reused,
                     vjps: last.vjps,
                     forward_rows: last.forward_rows,
                     backward_rows: last.backward_rows,

@@ -154,10 +154,9 @@ pub struct Sample {
 /// The field's work in one iteration.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct FieldWork {
-    /// Batched evaluations asked for (ODE stages, adjoint recomputations, displacement).
+    /// Batched evaluations (ODE stages, the adjoint's evaluations of stages whose records
+    /// were not kept, displacement).
     pub evaluations: u64,
-    /// Of those, answered from a stored evaluation.
-    pub reused: u64,
     /// Batched VJPs.
     pub vjps: u64,
     /// Rows (Gaussians) the MLP ran forward.
@@ -359,11 +358,10 @@ impl BenchReport {
             let f = &r.field;
             let _ = writeln!(
                 s,
-                "{:<6} {:<11} {} evaluations ({} reused), {} VJPs, MLP rows {} forward / {} backward, {:.2} GFLOP in GEMMs, {} field parameters",
+                "{:<6} {:<11} {} evaluations, {} VJPs, MLP rows {} forward / {} backward, {:.2} GFLOP in GEMMs, {} field parameters",
                 r.size,
                 r.motion.as_str(),
                 f.evaluations,
-                f.reused,
                 f.vjps,
                 f.forward_rows,
                 f.backward_rows,

@@ -7,8 +7,8 @@
 //! analytic gradient is identically zero fails (the check could not see anything).
 
 use super::scene::{
-    GradScene, ParamGroup, batch_step_loss_and_grad, central_difference, grad_scene,
-    grad_scene_twist, param_groups, sample_entries, second_view,
+    GradScene, ParamGroup, batch_step_loss_and_grad, central_difference, grad_scene, param_groups,
+    sample_entries, second_view,
 };
 use super::{GradRow, check_fn, uniform};
 use core::cell::RefCell;
@@ -169,19 +169,6 @@ pub fn training_step_rows(motion: Motion, seed: u64, samples: usize) -> (StepLos
     step_rows(grad_scene(motion, seed), None, name(motion), seed, samples)
 }
 
-/// [`training_step_rows`] in velocity motion with the twist velocity
-/// ([`grad_scene_twist`]): the twist's position and head terms and the twist coherence.
-#[must_use]
-pub fn twist_training_step_rows(seed: u64, samples: usize) -> (StepLosses, Vec<GradRow>) {
-    step_rows(
-        grad_scene_twist(seed),
-        None,
-        "twist velocity",
-        seed,
-        samples,
-    )
-}
-
 /// [`training_step_rows`] in velocity motion on a batch of two views (the scene's view at
 /// t = 0.7 and [`second_view`] at t = 0.3, in another segment): the mean of their
 /// photometric terms plus the regularisers once.
@@ -234,7 +221,6 @@ pub(super) fn rows(samples: usize) -> Vec<GradRow> {
     ];
     rows.extend(training_step_rows(Motion::Velocity, 3, samples).1);
     rows.extend(training_step_rows(Motion::Deformation, 5, samples).1);
-    rows.extend(twist_training_step_rows(7, samples).1);
     rows.extend(batch_training_step_rows(11, samples).1);
     rows
 }

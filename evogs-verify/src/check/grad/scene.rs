@@ -62,7 +62,7 @@ fn random_splats(rng: &mut SplitMix64) -> Splats<f64> {
     splats
 }
 
-fn field(rng: &mut SplitMix64, seed: u64, twist: bool) -> NeuralField<f64> {
+fn field(rng: &mut SplitMix64, seed: u64) -> NeuralField<f64> {
     let cfg = NeuralFieldConfig {
         hexplane: HexPlaneConfig {
             channels: 2,
@@ -72,7 +72,6 @@ fn field(rng: &mut SplitMix64, seed: u64, twist: bool) -> NeuralField<f64> {
         width: 6,
         output_scales: [1.0, 1.0, 0.5],
         zero_init_output: false,
-        twist,
     };
     let mut field = NeuralField::new(
         &cfg,
@@ -97,20 +96,13 @@ fn field(rng: &mut SplitMix64, seed: u64, twist: bool) -> NeuralField<f64> {
 /// Never for the built-in camera.
 #[must_use]
 pub fn grad_scene(motion: Motion, seed: u64) -> GradScene {
-    build(motion, seed, false)
+    build(motion, seed)
 }
 
-/// [`grad_scene`] in velocity motion with the twist velocity `v = a + ω × (x − c)` (and so
-/// the twist form of the coherence).
-#[must_use]
-pub fn grad_scene_twist(seed: u64) -> GradScene {
-    build(Motion::Velocity, seed, true)
-}
-
-fn build(motion: Motion, seed: u64, twist: bool) -> GradScene {
+fn build(motion: Motion, seed: u64) -> GradScene {
     let mut rng = SplitMix64::new(seed);
     let splats = random_splats(&mut rng);
-    let field = field(&mut rng, seed, twist);
+    let field = field(&mut rng, seed);
     let coherence_points: Vec<[f64; 3]> = [0, 2, 3, 5, 7, 8]
         .iter()
         .map(|&i: &usize| splats.means[i].to_array())
