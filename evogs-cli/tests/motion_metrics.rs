@@ -298,11 +298,7 @@ fn a_monocular_run_reads_shipped_masks_and_without_them_says_why_not() {
     assert!(m.dynamic.is_none(), "no masks, no static run");
     let note = m.dynamic_note.clone().expect("a note");
     assert!(note.contains("_motion.png"), "{note}");
-    assert!(
-        infos.0.iter().any(|i| *i == note),
-        "reported: {:?}",
-        infos.0
-    );
+    assert!(infos.0.contains(&note), "reported: {:?}", infos.0);
     // The same scene with a mask beside every test frame: a 64×64 block at full size, 8×8
     // pixels at the run's 1/8 downscale.
     let data = dir.join("scene");

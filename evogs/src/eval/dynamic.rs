@@ -393,10 +393,9 @@ mod tests {
 
     #[test]
     fn a_monocular_frame_has_no_mask_without_a_file_or_a_reference() {
-        let views: Vec<View> = (0..3)
+        let views: Vec<View> = (0..3u8)
             .map(|k| {
-                #[allow(clippy::cast_precision_loss, reason = "small")]
-                let x = k as f64;
+                let x = f64::from(k);
                 view(format!("r_{k}.png").into(), x / 2.0, frame(2, 2), x)
             })
             .collect();
@@ -412,15 +411,15 @@ mod tests {
     fn a_shipped_mask_is_read_and_wins() {
         let dir = std::env::temp_dir().join(format!("evogs-mask-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
-        let views: Vec<View> = (0..4)
+        let views: Vec<View> = (0..4u8)
             .map(|k| {
-                #[allow(clippy::cast_precision_loss, reason = "small")]
-                let t = k as f64 / 3.0;
+                let t = f64::from(k) / 3.0;
                 view(dir.join(format!("f_{k}.png")), t, frame(2, 2), 0.0)
             })
             .collect();
         // Grey-and-alpha mask: moving where both are non-zero.
-        let mut png = image::RgbaImage::new(W as u32, H as u32);
+        let size = |n: usize| u32::try_from(n).expect("small");
+        let mut png = image::RgbaImage::new(size(W), size(H));
         png.put_pixel(5, 6, image::Rgba([255, 255, 255, 255]));
         png.put_pixel(7, 6, image::Rgba([255, 255, 255, 0]));
         png.put_pixel(9, 6, image::Rgba([0, 0, 0, 255]));

@@ -200,6 +200,9 @@ pub fn evaluate_views(
     Ok(m)
 }
 
+/// Gives a frame's motion mask from its view and ground truth (`None`: no mask).
+pub type MaskSource<'f> = dyn FnMut(&View, &Image<f32>) -> Result<Option<FrameMask>, String> + 'f;
+
 /// Evaluates the given views in order, on the whole image and inside each frame's motion
 /// mask (`masks` gives it from the view and its ground truth; `None`: no mask). `rig` names
 /// the cameras of the per-frame values. Views loaded without their image are decoded one at
@@ -218,7 +221,7 @@ pub fn evaluate_views_masked(
     rig: &[RigCamera],
     background: [f32; 3],
     par: Par,
-    masks: &mut dyn FnMut(&View, &Image<f32>) -> Result<Option<FrameMask>, String>,
+    masks: &mut MaskSource<'_>,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<SplitMetrics, String> {
     let mut frames = Vec::with_capacity(selected.len());
