@@ -174,7 +174,13 @@ pub fn evaluate_run(
         series: psnr_series(&m),
     };
     save_time_plot(
-        &format!("{}: `{name}` PSNR against time", run.display()),
+        &format!(
+            "{}: {name} PSNR against time",
+            run.file_name().map_or_else(
+                || run.display().to_string(),
+                |n| n.to_string_lossy().into_owned()
+            )
+        ),
         &[panel],
         &training_marks(&ds.train, &l.cfg.data),
         &path.with_extension("png"),

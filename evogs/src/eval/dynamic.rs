@@ -242,16 +242,13 @@ impl<'a> MotionMasks<'a> {
             if !self.medians.contains_key(&key) {
                 let frames = &self.poses[&key];
                 let picked = evenly_spaced(frames.len(), MEDIAN_MAX_FRAMES);
-                let images = picked
-                    .iter()
-                    .map(|&i| {
-                        frames[i]
-                            .image_or_decode()
-                            .map(std::borrow::Cow::into_owned)
-                    })
-                    .collect::<Result<Vec<_>, _>>()
-                    .map_err(|e| e.to_string())?;
-                self.medians.insert(key, temporal_median(&images));
+                let median = temporal_median(picked.iter().map(|&i| {
+                    frames[i]
+                        .image_or_decode()
+                        .map(std::borrow::Cow::into_owned)
+                        .map_err(|e| e.to_string())
+                }))?;
+                self.medians.insert(key, median);
             }
             let median = &self.medians[&key];
             return Ok(Some(FrameMask {

@@ -192,33 +192,60 @@ pub fn read_motion_mask(view: &View) -> Result<Option<MotionMask>, String> {
     Ok(Some(MotionMask::from_flags(view.width, view.height, on)))
 }
 
-/// The per-pixel, per-channel median of `frames` (all of one size; at least one). An even
+/// The per-pixel, per-channel median of `frames` (at least one, all of one size), taken one
+/// frame at a time: each is kept as 16-bit levels of [0, 1] (a step of 1/65535, far below
+/// [`MOTION_THRESHOLD`]), so the median of `k` frames of `n` values takes `2kn` bytes. An even
 /// count takes the mean of the two middle values.
 ///
-/// # Panics
-/// If `frames` is empty or the sizes differ.
-#[must_use]
-pub fn temporal_median(frames: &[Image<f32>]) -> Image<f32> {
-    let first = &frames[0];
-    assert!(
-        frames.iter().all(|f| f.same_size(first)),
-        "frames of different sizes"
-    );
-    let n = frames.len();
-    let mut out = Image::new(first.width(), first.height());
-    let mut column = vec![0.0f32; n];
-    for (i, o) in out.data_mut().iter_mut().enumerate() {
-        for (c, f) in column.iter_mut().zip(frames) {
-            *c = f.data()[i];
+/// # Errors
+/// The first frame that fails to load, or no frame at all, or frames of different sizes.
+pub fn temporal_median(
+    frames: impl IntoIterator<Item = Result<Image<f32>, String>>,
+) -> Result<Image<f32>, String> {
+    let mut levels: Vec<u16> = Vec::new();
+    let mut size = None;
+    let mut k = 0usize;
+    for f in frames {
+        let f = f?;
+        let s = *size.get_or_insert((f.width(), f.height()));
+        if s != (f.width(), f.height()) {
+            return Err(format!(
+                "frames of different sizes for one camera: {}x{} and {}x{}",
+                s.0,
+                s.1,
+                f.width(),
+                f.height()
+            ));
         }
-        column.sort_unstable_by(f32::total_cmp);
-        *o = if n % 2 == 1 {
-            column[n / 2]
-        } else {
-            0.5 * (column[n / 2 - 1] + column[n / 2])
-        };
+        #[allow(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "clamped to [0, 65535] first"
+        )]
+        levels.extend(
+            f.data()
+                .iter()
+                .map(|v| (v.clamp(0.0, 1.0) * 65535.0).round() as u16),
+        );
+        k += 1;
     }
-    out
+    let (w, h) = size.ok_or_else(|| "no frame to take a median of".to_string())?;
+    let n = 3 * w * h;
+    let mut out = Image::new(w, h);
+    let mut column = vec![0u16; k];
+    for (i, o) in out.data_mut().iter_mut().enumerate() {
+        for (f, c) in column.iter_mut().enumerate() {
+            *c = levels[f * n + i];
+        }
+        column.sort_unstable();
+        let level = if k % 2 == 1 {
+            f32::from(column[k / 2])
+        } else {
+            0.5 * (f32::from(column[k / 2 - 1]) + f32::from(column[k / 2]))
+        };
+        *o = level / 65535.0;
+    }
+    Ok(out)
 }
 
 /// Up to `max` indices of `0..n`, evenly spaced, first and last included (all of them when
@@ -266,11 +293,19 @@ mod tests {
         let back = Image::filled(4, 3, [0.2f32, 0.4, 0.6]);
         let mut odd = back.clone();
         odd.set(1, 1, [1.0, 1.0, 1.0]);
-        let m = temporal_median(&[back.clone(), odd.clone(), back.clone()]);
-        assert_eq!(m, back, "two of three frames");
-        let even = temporal_median(&[back.clone(), odd]);
+        let m = temporal_median([back.clone(), odd.clone(), back.clone()].map(Ok)).expect("median");
+        for (a, b) in m.data().iter().zip(back.data()) {
+            assert!(
+                (a - b).abs() <= 0.5 / 65535.0,
+                "two of three frames: {a} vs {b}"
+            );
+        }
+        let even = temporal_median([back.clone(), odd].map(Ok)).expect("median");
         let p = even.get(1, 1);
-        assert!((p[0] - 0.6).abs() < 1e-6, "mean of the middle two: {p:?}");
+        assert!((p[0] - 0.6).abs() < 1e-4, "mean of the middle two: {p:?}");
+        let e = temporal_median([Ok(back), Ok(Image::new(2, 2))]).expect_err("sizes");
+        assert!(e.contains("different sizes"), "{e}");
+        assert!(temporal_median([]).is_err(), "no frame");
     }
 
     #[test]

@@ -253,9 +253,6 @@ mod tests {
         assert_eq!(bars_of(&img, COLORS[0]), 2, "two velocity bars");
         assert_eq!(bars_of(&img, COLORS[1]), 2, "two deformation bars");
         assert_eq!(bars_of(&img, COLORS[2]), 1, "one static bar");
-        if std::env::var_os("EVOGS_KEEP_PLOTS").is_some() {
-            std::fs::copy(&path, "/tmp/evogs-bars.png").ok();
-        }
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -13,6 +13,11 @@ const PANEL_H: u32 = 290;
 const HEADER_H: u32 = 44;
 /// Shade of the training window.
 const WINDOW: RGBColor = RGBColor(225, 238, 225);
+/// Height of the legend row above each panel.
+const LEGEND_H: u32 = 26;
+/// Where the legend row starts and its middle line (panel coordinates).
+const LEGEND_X: i32 = 90;
+const LEGEND_Y: i32 = 14;
 /// Colour of the training-time ticks.
 const TICK: RGBColor = RGBColor(40, 130, 60);
 
@@ -41,6 +46,14 @@ pub struct TrainingMarks {
     pub window: Option<(f64, f64)>,
     /// The distinct supervised times (ticks).
     pub times: Vec<f64>,
+}
+
+/// The width of `s` in the legend's font.
+fn text_width(s: &str) -> u32 {
+    (FAMILY, 12)
+        .into_font()
+        .box_size(s)
+        .map_or(7 * u32::try_from(s.len()).unwrap_or(0), |b| b.0)
 }
 
 fn err(e: impl std::fmt::Display) -> String {
@@ -148,6 +161,7 @@ fn panel(
     let text = TextStyle::from((FAMILY, 12)).color(&RGBColor(30, 30, 30));
     let mut chart = ChartBuilder::on(area)
         .margin(10)
+        .margin_top(LEGEND_H)
         .margin_left(14)
         .x_label_area_size(36)
         .y_label_area_size(64)
@@ -190,15 +204,20 @@ fn panel(
             .draw_series(pts.iter().map(|&q| Circle::new(q, 3, c.filled())))
             .map_err(err)?;
     }
-    if !p.series.is_empty() {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(180, 180, 180))
-            .label_font(text)
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
+    // The legend, in a row above the panel (never over the data).
+    let mut x = LEGEND_X;
+    for (k, s) in p.series.iter().enumerate() {
+        let c = COLORS[k % COLORS.len()];
+        area.draw(&PathElement::new(
+            vec![(x, LEGEND_Y), (x + 18, LEGEND_Y)],
+            c.stroke_width(3),
+        ))
+        .map_err(err)?;
+        area.draw(&Circle::new((x + 9, LEGEND_Y), 3, c.filled()))
             .map_err(err)?;
+        area.draw_text(&s.name, &text, (x + 24, LEGEND_Y - 7))
+            .map_err(err)?;
+        x += 24 + i32::try_from(text_width(&s.name)).unwrap_or(60) + 18;
     }
     Ok(())
 }
@@ -257,9 +276,6 @@ mod tests {
             assert!(count(COLORS[1], top) > 200, "second line (top {top})");
             assert!(count(WINDOW, top) > 5000, "the window (top {top})");
             assert!(count(TICK, top) > 20, "the ticks (top {top})");
-        }
-        if std::env::var_os("EVOGS_KEEP_PLOTS").is_some() {
-            std::fs::copy(&path, "/tmp/evogs-time.png").ok();
         }
         // Nothing to draw still gives a picture.
         save_time_plot("empty", &[], &TrainingMarks::default(), &path).expect("empty");
