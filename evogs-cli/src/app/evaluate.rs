@@ -131,11 +131,14 @@ pub fn evaluate_run(
     }
     let mut model = l.model;
     model.field.set_par(Par::best());
-    rep.start(&format!("evaluate {}", split.as_str()), views.len() as u64);
     let selected: Vec<&View> = views
         .iter()
         .filter(|v| range.is_none_or(|(a, b)| v.time >= a && v.time <= b))
         .collect();
+    rep.start(
+        &format!("evaluate {}", split.as_str()),
+        selected.len() as u64,
+    );
     // The masks come from the ground truth alone: the temporal median of a pose is taken over
     // its frames in every split, whatever the time range.
     let mut masks = MotionMasks::new(ds.all_views());
