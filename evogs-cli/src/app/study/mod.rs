@@ -23,8 +23,10 @@ mod runner;
 mod timeline;
 
 pub use protocol::{HeldOutSet, StudyProtocol};
-pub use report::{Cell, CostRow, Provenance, Row, RunRecord, SetMetrics, Stat, StudySummary};
-pub use timeline::{CurvePoint, DynamicRow, MotionCurve, Timeline};
+pub use report::{
+    Cell, CostRow, CurvePoint, DynamicRow, MotionCurve, Provenance, Row, RunRecord, SetMetrics,
+    Stat, StudySummary, Timeline,
+};
 
 use super::Reporter;
 use super::error::CommandError;

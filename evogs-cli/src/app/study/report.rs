@@ -3,7 +3,7 @@
 //! against time, and the tables as Markdown (`study.md`).
 
 use super::protocol::StudyProtocol;
-use super::timeline::{DynamicRow, Timeline};
+use evogs::eval::dynamic::MaskRule;
 use evogs::model::Motion;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -137,6 +137,60 @@ pub struct CostRow {
     pub iterations: u64,
     /// Gaussians at the end.
     pub gaussians: Stat,
+}
+
+/// A row of the dynamic-region table: one protocol and held-out set, a cell per motion.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DynamicRow {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The held-out set.
+    pub set: String,
+    /// Frames in the set.
+    pub frames: usize,
+    /// Frames with a non-empty motion mask (the cells' means are over these).
+    pub masked_frames: usize,
+    /// Mean fraction of the frames' pixels inside the masks.
+    pub mask_fraction: f64,
+    /// The rules that made the masks.
+    pub rules: Vec<MaskRule>,
+    /// Dynamic-region PSNR / SSIM per motion (over repeats).
+    pub cells: Vec<Cell>,
+}
+
+/// One point of a curve: the mean over the frames at one time (and over repeats).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CurvePoint {
+    /// The frame time.
+    pub time: f64,
+    /// Whole-image PSNR (dB).
+    pub psnr: f64,
+    /// PSNR inside the motion masks (dB), where the frames have masks.
+    pub dynamic_psnr: Option<f64>,
+}
+
+/// A motion's curve on one protocol.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MotionCurve {
+    /// The motion.
+    pub motion: Motion,
+    /// Points by increasing time.
+    pub points: Vec<CurvePoint>,
+}
+
+/// One protocol's metrics against time (`study-time-<protocol>.png`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Timeline {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The plot, relative to the study folder.
+    pub plot: String,
+    /// The training window (smallest and largest supervised time).
+    pub window: Option<[f64; 2]>,
+    /// The distinct supervised times.
+    pub train_times: Vec<f64>,
+    /// A curve per motion, over every frame of the protocol's held-out sets.
+    pub curves: Vec<MotionCurve>,
 }
 
 /// Where and how the study ran.
@@ -553,8 +607,6 @@ mod tests {
 
     #[test]
     fn the_dynamic_table_follows_the_whole_image_one() {
-        use super::super::timeline::DynamicRow;
-        use evogs::eval::dynamic::MaskRule;
         let p = StudyProtocol::Sparse(4);
         let stat = |m: f64| Stat::of(&[m]).expect("one");
         let row = DynamicRow {

@@ -5,7 +5,7 @@
 //! per-frame PSNR gives one plot per protocol, the motions overlaid.
 
 use super::protocol::{HeldOutSet, StudyProtocol};
-use super::report::{Cell, Stat};
+use super::report::{Cell, CurvePoint, DynamicRow, MotionCurve, Stat, Timeline};
 use super::runner::PlannedRun;
 use crate::app::Reporter;
 use crate::app::error::CommandError;
@@ -14,67 +14,12 @@ use crate::app::paths::RunFolder;
 use crate::app::plot::{TimePanel, TimeSeries, TrainingMarks, save_time_plot};
 use evogs::config::DataConfig;
 use evogs::data::Dataset;
-use evogs::eval::dynamic::{FrameMask, MaskRule, MotionMasks, NO_MASK_NOTE};
+use evogs::eval::dynamic::{FrameMask, MotionMasks, NO_MASK_NOTE};
 use evogs::eval::{SplitMetrics, evaluate_views_masked};
 use evogs::model::{Model, Motion};
 use evogs::run::checkpoint;
 use evogs_math::Par;
-use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-
-/// A row of the dynamic-region table: one protocol and held-out set, a cell per motion.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DynamicRow {
-    /// The protocol.
-    pub protocol: StudyProtocol,
-    /// The held-out set.
-    pub set: String,
-    /// Frames in the set.
-    pub frames: usize,
-    /// Frames with a non-empty motion mask (the cells' means are over these).
-    pub masked_frames: usize,
-    /// Mean fraction of the frames' pixels inside the masks.
-    pub mask_fraction: f64,
-    /// The rules that made the masks.
-    pub rules: Vec<MaskRule>,
-    /// Dynamic-region PSNR / SSIM per motion (over repeats).
-    pub cells: Vec<Cell>,
-}
-
-/// One point of a curve: the mean over the frames at one time (and over repeats).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CurvePoint {
-    /// The frame time.
-    pub time: f64,
-    /// Whole-image PSNR (dB).
-    pub psnr: f64,
-    /// PSNR inside the motion masks (dB), where the frames have masks.
-    pub dynamic_psnr: Option<f64>,
-}
-
-/// A motion's curve on one protocol.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct MotionCurve {
-    /// The motion.
-    pub motion: Motion,
-    /// Points by increasing time.
-    pub points: Vec<CurvePoint>,
-}
-
-/// One protocol's metrics against time (`study-time-<protocol>.png`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Timeline {
-    /// The protocol.
-    pub protocol: StudyProtocol,
-    /// The plot, relative to the study folder.
-    pub plot: String,
-    /// The training window (smallest and largest supervised time).
-    pub window: Option<[f64; 2]>,
-    /// The distinct supervised times.
-    pub train_times: Vec<f64>,
-    /// A curve per motion, over every frame of the protocol's held-out sets.
-    pub curves: Vec<MotionCurve>,
-}
 
 /// Per-frame metrics of one run on its protocol's held-out sets.
 #[derive(Clone, Debug)]
