@@ -1,7 +1,9 @@
 //! `evogs study` end to end on the shipped scene at 50×50 with a tiny field: the outputs and
 //! their rows, reuse of finished runs, resumption of an interrupted run (bit for bit like the
-//! uninterrupted one), and bad input refused before any training.
+//! uninterrupted one), the dynamic-region table and the plots against time (consistent with
+//! study.json), and bad input refused before any training.
 
+use evogs::eval::dynamic::MaskRule;
 use evogs::model::Motion;
 use evogs::run::checkpoint;
 use evogs::train::trainer::Trainer;
@@ -128,6 +130,78 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
     let png = image::open(&o.chart).expect("study.png");
     assert!(png.width() > 300 && png.height() > 300, "a chart");
 
+    // The dynamic regions: monocular frames without mask files, so the masks are where the
+    // static run's render is wrong; a row per whole-image row, a cell per motion.
+    assert_eq!(s.dynamic_rows.len(), s.rows.len(), "{:?}", s.dynamic_rows);
+    for (d, r) in s.dynamic_rows.iter().zip(&s.rows) {
+        assert_eq!(
+            (d.protocol, &d.set, d.frames),
+            (r.protocol, &r.set, r.frames)
+        );
+        assert_eq!(d.rules, [MaskRule::StaticRender], "{d:?}");
+        assert!(d.masked_frames >= 1 && d.masked_frames <= d.frames, "{d:?}");
+        assert!(d.mask_fraction > 0.0 && d.mask_fraction < 1.0, "{d:?}");
+        assert_eq!(d.cells.len(), 3, "a cell per motion");
+        assert!(d.cells.iter().all(|c| c.psnr.mean.is_finite()), "{d:?}");
+    }
+    assert!(
+        md.contains("Dynamic-region PSNR") && md.contains("static_render"),
+        "{md}"
+    );
+    // Metrics against time: a plot per protocol, drawn from the curves in study.json, whose
+    // points are the held-out frames (one per time on the full protocol's test set) with the
+    // table's means.
+    assert_eq!(o.time_plots.len(), 3, "a plot per protocol");
+    assert_eq!(s.timelines.len(), 3, "a timeline per protocol");
+    for (t, plot) in s.timelines.iter().zip(&o.time_plots) {
+        assert_eq!(out.join(&t.plot), *plot, "the plot's name");
+        let img = image::open(plot).expect("a time plot");
+        assert!(
+            img.width() > 300 && img.height() > 300,
+            "{}",
+            plot.display()
+        );
+        assert_eq!(t.curves.len(), 3, "a curve per motion");
+        let [a, b] = t.window.expect("a training window");
+        assert!(
+            a <= b && t.train_times.iter().all(|x| (a..=b).contains(x)),
+            "{t:?}"
+        );
+    }
+    let full = &s.timelines[0];
+    let row = &s.rows[0];
+    let drow = &s.dynamic_rows[0];
+    for c in &full.curves {
+        assert_eq!(
+            c.points.len(),
+            row.frames,
+            "{:?}: a point per test frame",
+            c.motion
+        );
+        #[allow(clippy::cast_precision_loss, reason = "small counts")]
+        let mean = c.points.iter().map(|p| p.psnr).sum::<f64>() / c.points.len() as f64;
+        let cell = row.cell(c.motion).expect("cell").psnr.mean;
+        assert!(
+            (mean - cell).abs() < 1e-9,
+            "{:?}: {mean} vs {cell}",
+            c.motion
+        );
+        let dynamic: Vec<f64> = c.points.iter().filter_map(|p| p.dynamic_psnr).collect();
+        assert_eq!(dynamic.len(), drow.masked_frames, "{:?}", c.motion);
+        #[allow(clippy::cast_precision_loss, reason = "small counts")]
+        let dmean = dynamic.iter().sum::<f64>() / dynamic.len() as f64;
+        let dcell = drow
+            .cells
+            .iter()
+            .find(|x| x.motion == c.motion)
+            .expect("cell");
+        assert!((dmean - dcell.psnr.mean).abs() < 1e-9, "{:?}", c.motion);
+    }
+    assert!(
+        s.timelines[1].train_times.len() < full.train_times.len(),
+        "sparse:4 trains on fewer times"
+    );
+
     // A second call reuses every finished run: nothing is trained or rewritten.
     let ckpt = out.join("runs/full-velocity-s0/checkpoint.safetensors");
     let before = mtime(&ckpt);
@@ -135,6 +209,10 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
     assert_eq!((again.trained, again.reused), (0, 9), "all reused");
     assert_eq!(mtime(&ckpt), before, "the checkpoint was not rewritten");
     assert_eq!(again.summary.rows, o.summary.rows, "the same table");
+    assert_eq!(
+        again.summary.dynamic_rows, o.summary.dynamic_rows,
+        "the same dynamic-region table"
+    );
 
     // An interrupted run: the planned configuration and a checkpoint at iteration 12 in its
     // folder, no record. The study resumes it and ends where the uninterrupted run ended.

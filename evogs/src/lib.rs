@@ -10,7 +10,7 @@
 //! | [`model`] | canonical Gaussians, waypoint anchors, velocity/deformation/static dynamics: the Gaussians at any time and the way back (discrete adjoint) |
 //! | [`train`] | one step's loss and exact gradient, Adam with the EvoGS schedules, densification, the trainer |
 //! | [`run`] | checkpoints (bit-for-bit resumable) |
-//! | [`eval`] | PSNR and SSIM on held-out views |
+//! | [`eval`] | PSNR and SSIM on held-out views, whole and inside motion masks |
 //! | [`config`] | the TOML training configuration and its presets |
 //! | [`atomic`] | every output file written under a temporary name and renamed when complete |
 //!

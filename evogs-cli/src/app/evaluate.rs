@@ -1,12 +1,20 @@
-//! `evogs eval`: metrics of a trained run on a split, written to `RUN/metrics-<split>.json`.
+//! `evogs eval`: metrics of a trained run on a split, whole-image and inside each frame's
+//! motion mask, written to `RUN/metrics-<split>.json`, the per-frame values to
+//! `RUN/metrics-<split>.csv`, and PSNR against time to `RUN/metrics-<split>.png` (the
+//! training window and times marked).
 
 use super::Reporter;
-use super::error::CommandError;
+use super::error::{CommandError, Context};
 use super::load::load_dataset;
 use super::paths::RunFolder;
-use evogs::data::{DataFormat, SplitName};
-use evogs::eval::{SplitMetrics, evaluate};
+use super::plot::{TimePanel, TimeSeries, TrainingMarks, save_time_plot};
+use evogs::config::DataConfig;
+use evogs::data::{DataFormat, SplitName, View};
+use evogs::eval::dynamic::MotionMasks;
+use evogs::eval::table::frames_csv;
+use evogs::eval::{SplitMetrics, evaluate_views_masked};
 use evogs::run::checkpoint;
+use evogs::train::views::supervised_indices;
 use evogs_math::Par;
 use std::path::{Path, PathBuf};
 
@@ -28,10 +36,53 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
     Ok((a, b))
 }
 
+/// What a run trained on: the window and the distinct times of the training views its
+/// protocol supervises.
+#[must_use]
+pub fn training_marks(train: &[View], data: &DataConfig) -> TrainingMarks {
+    let mut times: Vec<f64> = supervised_indices(train, data)
+        .into_iter()
+        .map(|i| train[i].time)
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times.dedup();
+    TrainingMarks {
+        window: times.first().zip(times.last()).map(|(&a, &b)| (a, b)),
+        times,
+    }
+}
+
+/// The per-frame PSNR of `m` against time: the whole image, and inside the motion masks
+/// where there are any.
+#[must_use]
+pub fn psnr_series(m: &SplitMetrics) -> Vec<TimeSeries> {
+    let mut out = vec![TimeSeries {
+        name: "whole image".into(),
+        points: m.frames.iter().map(|f| (f.time, f.psnr)).collect(),
+    }];
+    let dynamic: Vec<(f64, f64)> = m
+        .frames
+        .iter()
+        .filter_map(|f| Some((f.time, f.dynamic_psnr?)))
+        .collect();
+    if !dynamic.is_empty() {
+        out.push(TimeSeries {
+            name: "dynamic region".into(),
+            points: dynamic,
+        });
+    }
+    out
+}
+
 /// Runs `evogs eval` and writes the metrics file (`RUN/metrics-<split>.json`, or
-/// `RUN/metrics-<split>-tA-B.json` for a time range, which the file also records); returns
-/// the metrics and the file. `data` and `format` override the run's dataset folder and
-/// layout.
+/// `RUN/metrics-<split>-tA-B.json` for a time range, which the file also records), the
+/// per-frame CSV and the plot beside it (same name, `.csv` and `.png`); returns the metrics
+/// and the JSON file. `data` and `format` override the run's dataset folder and layout.
+///
+/// Each frame's motion mask is the dataset's `X_motion.png`, else (a camera pose shared over
+/// time) the difference from that pose's temporal median; a lone monocular run without mask
+/// files has no dynamic-region metrics, which the metrics' `dynamic_note` (and a line on
+/// `rep`) says.
 ///
 /// # Errors
 /// Unreadable run or data, an empty split, a time range that selects no frame.
@@ -80,18 +131,32 @@ pub fn evaluate_run(
     }
     let mut model = l.model;
     model.field.set_par(Par::best());
-    rep.start(&format!("evaluate {}", split.as_str()), views.len() as u64);
-    let mut m = evaluate(
+    let selected: Vec<&View> = views
+        .iter()
+        .filter(|v| range.is_none_or(|(a, b)| v.time >= a && v.time <= b))
+        .collect();
+    rep.start(
+        &format!("evaluate {}", split.as_str()),
+        selected.len() as u64,
+    );
+    // The masks come from the ground truth alone: the temporal median of a pose is taken over
+    // its frames in every split, whatever the time range.
+    let mut masks = MotionMasks::new(ds.all_views());
+    let mut m = evaluate_views_masked(
         &mut model,
-        views,
+        &selected,
         split,
-        range,
+        &ds.rig,
         l.cfg.data.background,
         Par::best(),
+        &mut |v, gt| masks.mask(v, gt),
         |d, _| rep.progress(d as u64, ""),
     )
     .map_err(CommandError::new)?;
     rep.finish();
+    if let Some(note) = &m.dynamic_note {
+        rep.info(note);
+    }
     m.iterations = l.archive.meta["iteration"].as_u64().unwrap_or(0);
     m.train_seconds = l.archive.meta["train_seconds"].as_f64().unwrap_or(0.0);
     m.time_range = range.map(|(a, b)| [a, b]);
@@ -102,7 +167,25 @@ pub fn evaluate_run(
     };
     let path = folder.metrics(&name);
     let json = serde_json::to_string_pretty(&m).unwrap_or_default();
-    evogs::atomic::write_atomic(&path, json.as_bytes())
-        .map_err(|e| CommandError::new(format!("{}: {e}", path.display())))?;
+    evogs::atomic::write_atomic(&path, json.as_bytes()).doing(&path, "cannot write the metrics")?;
+    let csv = path.with_extension("csv");
+    evogs::atomic::write_atomic(&csv, frames_csv(&m.frames).as_bytes())
+        .doing(&csv, "cannot write the per-frame metrics")?;
+    let panel = TimePanel {
+        y_label: "PSNR (dB)".into(),
+        series: psnr_series(&m),
+    };
+    save_time_plot(
+        &format!(
+            "{}: {name} PSNR against time",
+            run.file_name().map_or_else(
+                || run.display().to_string(),
+                |n| n.to_string_lossy().into_owned()
+            )
+        ),
+        &[panel],
+        &training_marks(&ds.train, &l.cfg.data),
+        &path.with_extension("png"),
+    )?;
     Ok((m, path))
 }

@@ -76,7 +76,8 @@ impl RunFolder {
                     | "log.csv"
                     | "curve.png"
                     | "study-run.json"
-            ) || (name.starts_with("metrics-") && name.ends_with(".json"));
+            ) || (name.starts_with("metrics-")
+                && [".json", ".csv", ".png"].iter().any(|x| name.ends_with(x)));
             let res = if name == "render" && p.is_dir() {
                 std::fs::remove_dir_all(&p)
             } else if ours {

@@ -17,7 +17,8 @@ pub struct BarGroup {
     pub values: Vec<Option<f64>>,
 }
 
-const COLORS: [RGBColor; 6] = [
+/// The series' colours, in order (shared with the time plots).
+pub(super) const COLORS: [RGBColor; 6] = [
     RGBColor(30, 90, 200),
     RGBColor(220, 110, 30),
     RGBColor(120, 120, 120),
@@ -27,7 +28,11 @@ const COLORS: [RGBColor; 6] = [
 ];
 const BAR_W: u32 = 26;
 const GAP: u32 = 24;
+/// Width of the y-axis tick labels.
 const MARGIN_L: u32 = 70;
+/// Room left of the tick labels for the rotated y-axis label (plotters draws it extending
+/// left of its label area, so without this room it is clipped at the image's edge).
+const Y_DESC_W: u32 = 2 * TEXT;
 const MARGIN_T: u32 = 64;
 const PLOT_H: u32 = 300;
 const MARGIN_B: u32 = 44;
@@ -68,13 +73,13 @@ pub fn save_bars(
     let group_w = (n_series * BAR_W).max(label_w) + GAP;
     let n_groups = u32::try_from(groups.len()).unwrap_or(0);
     let legend_w: u32 = series.iter().map(|s| text_width(s) + 30).sum();
-    let width = (MARGIN_L + n_groups * group_w + GAP).max(MARGIN_L + legend_w + 20);
+    let width = Y_DESC_W + (MARGIN_L + n_groups * group_w + GAP).max(MARGIN_L + legend_w + 20);
     let height = MARGIN_T + PLOT_H + MARGIN_B;
     render_png(path, (width, height), |root| {
         let layout = Layout {
             group_w,
             n_series,
-            plot_w: width - MARGIN_L - GAP / 2,
+            plot_w: width - Y_DESC_W - MARGIN_L - GAP / 2,
         };
         draw(root, &layout, title, y_label, series, groups)
     })
@@ -102,10 +107,10 @@ fn draw(
     root.draw_text(
         title,
         &TextStyle::from((FAMILY, 16)).color(&black),
-        (MARGIN_L as i32, 8),
+        ((Y_DESC_W + MARGIN_L) as i32, 8),
     )
     .map_err(err)?;
-    let mut x = MARGIN_L as i32;
+    let mut x = (Y_DESC_W + MARGIN_L) as i32;
     for (i, s) in series.iter().enumerate() {
         let c = COLORS[i % COLORS.len()];
         root.draw(&Rectangle::new([(x, 34), (x + 12, 45)], c.filled()))
@@ -121,6 +126,7 @@ fn draw(
     let (lo, hi) = axis_range(&values);
     let mut chart = ChartBuilder::on(root)
         .margin_top(MARGIN_T)
+        .margin_left(Y_DESC_W)
         .margin_right(GAP / 2)
         .x_label_area_size(MARGIN_B)
         .y_label_area_size(MARGIN_L)

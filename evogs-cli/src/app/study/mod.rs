@@ -2,10 +2,11 @@
 //! trained with the same preset, configuration, budget and data in a folder of its own,
 //! evaluated on the protocol's held-out sets, and summarised in `study.json`, `study.md`
 //! (one row per protocol and held-out set, one column per motion, and velocity − deformation
-//! in dB) and `study.png` (grouped bars).
+//! in dB; then the same inside the frames' motion masks) and `study.png` (grouped bars), with
+//! held-out PSNR against time per protocol in `study-time-<protocol>.png`.
 //!
 //! ```text
-//! OUT/study.json  study.md  study.png
+//! OUT/study.json  study.md  study.png  study-time-<protocol>.png
 //! OUT/runs/<protocol>-<motion>-s<k>/   config.toml checkpoint.safetensors log.csv ... study-run.json
 //! ```
 //!
@@ -19,9 +20,13 @@ mod progress;
 mod protocol;
 mod report;
 mod runner;
+mod timeline;
 
 pub use protocol::{HeldOutSet, StudyProtocol};
-pub use report::{Cell, CostRow, Provenance, Row, RunRecord, SetMetrics, Stat, StudySummary};
+pub use report::{
+    Cell, CostRow, CurvePoint, DynamicRow, MotionCurve, Provenance, Row, RunRecord, SetMetrics,
+    Stat, StudySummary, Timeline,
+};
 
 use super::Reporter;
 use super::counts::{positive_count, positive_size};
@@ -108,6 +113,8 @@ pub struct StudyOutcome {
     pub markdown: PathBuf,
     /// `study.png`.
     pub chart: PathBuf,
+    /// `study-time-<protocol>.png`, one per protocol.
+    pub time_plots: Vec<PathBuf>,
     /// Runs trained (or resumed) by this call.
     pub trained: usize,
     /// Runs whose earlier results were reused.
@@ -345,6 +352,18 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         .iter()
         .map(|r| read_record(&r.record_path()))
         .collect::<Result<_, _>>()?;
+    // Dynamic regions and metrics against time: every run evaluated frame by frame inside
+    // the motion masks (the static run of each protocol gives the monocular masks).
+    let (dynamic, time_plots) = timeline::dynamic_pass(
+        &runs,
+        &ds,
+        &sets,
+        &args.protocols,
+        &args.motions,
+        &base.data,
+        &args.out,
+        rep,
+    )?;
     let summary = StudySummary::new(
         Provenance {
             command: args.command.clone(),
@@ -366,7 +385,8 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         args.protocols.clone(),
         args.motions.clone(),
         records,
-    );
+    )
+    .with_dynamic(dynamic.rows, dynamic.note, dynamic.timelines);
     let json = args.out.join("study.json");
     let markdown = args.out.join("study.md");
     let chart = args.out.join("study.png");
@@ -380,6 +400,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         json,
         markdown,
         chart,
+        time_plots,
         trained: pending.len(),
         reused,
     })

@@ -1,7 +1,9 @@
 //! What a study measured: one record per run (`RUN/study-run.json`), the study's summary
-//! (`study.json`) with its aggregated table, and the table as Markdown (`study.md`).
+//! (`study.json`) with its aggregated tables (whole image, dynamic regions) and curves
+//! against time, and the tables as Markdown (`study.md`).
 
 use super::protocol::StudyProtocol;
+use evogs::eval::dynamic::MaskRule;
 use evogs::model::Motion;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -137,6 +139,60 @@ pub struct CostRow {
     pub gaussians: Stat,
 }
 
+/// A row of the dynamic-region table: one protocol and held-out set, a cell per motion.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DynamicRow {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The held-out set.
+    pub set: String,
+    /// Frames in the set.
+    pub frames: usize,
+    /// Frames with a non-empty motion mask (the cells' means are over these).
+    pub masked_frames: usize,
+    /// Mean fraction of the frames' pixels inside the masks.
+    pub mask_fraction: f64,
+    /// The rules that made the masks.
+    pub rules: Vec<MaskRule>,
+    /// Dynamic-region PSNR / SSIM per motion (over repeats).
+    pub cells: Vec<Cell>,
+}
+
+/// One point of a curve: the mean over the frames at one time (and over repeats).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CurvePoint {
+    /// The frame time.
+    pub time: f64,
+    /// Whole-image PSNR (dB).
+    pub psnr: f64,
+    /// PSNR inside the motion masks (dB), where the frames have masks.
+    pub dynamic_psnr: Option<f64>,
+}
+
+/// A motion's curve on one protocol.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MotionCurve {
+    /// The motion.
+    pub motion: Motion,
+    /// Points by increasing time.
+    pub points: Vec<CurvePoint>,
+}
+
+/// One protocol's metrics against time (`study-time-<protocol>.png`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Timeline {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The plot, relative to the study folder.
+    pub plot: String,
+    /// The training window (smallest and largest supervised time).
+    pub window: Option<[f64; 2]>,
+    /// The distinct supervised times.
+    pub train_times: Vec<f64>,
+    /// A curve per motion, over every frame of the protocol's held-out sets.
+    pub curves: Vec<MotionCurve>,
+}
+
 /// Where and how the study ran.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Provenance {
@@ -182,6 +238,16 @@ pub struct StudySummary {
     pub costs: Vec<CostRow>,
     /// Every run.
     pub runs: Vec<RunRecord>,
+    /// The dynamic-region table: PSNR and SSIM inside the frames' motion masks, one row per
+    /// protocol and held-out set that has masks.
+    #[serde(default)]
+    pub dynamic_rows: Vec<DynamicRow>,
+    /// Why some held-out frames have no dynamic-region metrics, if so.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dynamic_note: Option<String>,
+    /// Held-out PSNR against time, one per protocol (what `study-time-<protocol>.png` draws).
+    #[serde(default)]
+    pub timelines: Vec<Timeline>,
 }
 
 impl StudySummary {
@@ -260,7 +326,24 @@ impl StudySummary {
             rows,
             costs,
             runs,
+            dynamic_rows: Vec::new(),
+            dynamic_note: None,
+            timelines: Vec::new(),
         }
+    }
+
+    /// This summary with the dynamic-region table, its note and the curves against time.
+    #[must_use]
+    pub fn with_dynamic(
+        mut self,
+        rows: Vec<DynamicRow>,
+        note: Option<String>,
+        timelines: Vec<Timeline>,
+    ) -> Self {
+        self.dynamic_rows = rows;
+        self.dynamic_note = note;
+        self.timelines = timelines;
+        self
     }
 
     /// The table as Markdown: a row per protocol and held-out set, PSNR / SSIM per motion
@@ -336,6 +419,7 @@ impl StudySummary {
             }
             s.push('\n');
         }
+        self.dynamic_markdown(&mut s);
         s.push_str("\nTraining cost per run: seconds, iterations, Gaussians at the end.\n\n");
         s.push_str("| protocol | motion | train seconds | iterations | Gaussians |\n");
         s.push_str("|---|---|---|---|---|\n");
@@ -351,6 +435,75 @@ impl StudySummary {
             );
         }
         s
+    }
+
+    /// The dynamic-region table (and its note), after the whole-image table.
+    fn dynamic_markdown(&self, s: &mut String) {
+        if self.dynamic_rows.is_empty() && self.dynamic_note.is_none() {
+            return;
+        }
+        let _ = writeln!(
+            s,
+            "\nDynamic-region PSNR (dB) / SSIM: inside each frame's motion mask, from the ground \
+             truth alone (`shipped`: the dataset's X_motion.png; `temporal_median`: where a fixed \
+             camera's frame differs from its temporal median; `static_render`: where the ground \
+             truth differs from the static run's render, i.e. where a model that does not move \
+             is wrong). Means over the frames with a non-empty mask; `mask` is the mean \
+             fraction of their pixels.\n"
+        );
+        if let Some(n) = &self.dynamic_note {
+            let _ = writeln!(s, "Note: {n}.\n");
+        }
+        if self.dynamic_rows.is_empty() {
+            return;
+        }
+        let diff = self.has_diff();
+        s.push_str("| protocol | held-out set | frames with a mask | mask | rule |");
+        for m in &self.motions {
+            let _ = write!(s, " {} |", m.as_str());
+        }
+        if diff {
+            s.push_str(" velocity − deformation (dB) |");
+        }
+        s.push_str("\n|---|---|---|---|---|");
+        for _ in &self.motions {
+            s.push_str("---|");
+        }
+        if diff {
+            s.push_str("---|");
+        }
+        s.push('\n');
+        for r in &self.dynamic_rows {
+            let rules: Vec<&str> = r.rules.iter().map(|x| x.as_str()).collect();
+            let _ = write!(
+                s,
+                "| {} | {} | {} of {} | {:.1}% | {} |",
+                r.protocol,
+                r.set,
+                r.masked_frames,
+                r.frames,
+                100.0 * r.mask_fraction,
+                rules.join(", ")
+            );
+            let cell = |m: Motion| r.cells.iter().find(|c| c.motion == m);
+            for m in &self.motions {
+                match cell(*m) {
+                    Some(c) => {
+                        let _ = write!(s, " {} / {} |", fmt_stat(c.psnr, 2), fmt_stat(c.ssim, 3));
+                    }
+                    None => s.push_str(" – |"),
+                }
+            }
+            if diff {
+                match (cell(Motion::Velocity), cell(Motion::Deformation)) {
+                    (Some(v), Some(d)) => {
+                        let _ = write!(s, " {:+.2} |", v.psnr.mean - d.psnr.mean);
+                    }
+                    _ => s.push_str(" – |"),
+                }
+            }
+            s.push('\n');
+        }
     }
 
     fn has_diff(&self) -> bool {
@@ -450,6 +603,56 @@ mod tests {
         assert!(md.contains("+1.00 |"), "{md}");
         assert!(md.contains("velocity − deformation"), "{md}");
         assert_eq!(s.costs.len(), 3, "a cost row per motion");
+    }
+
+    #[test]
+    fn the_dynamic_table_follows_the_whole_image_one() {
+        let p = StudyProtocol::Sparse(4);
+        let stat = |m: f64| Stat::of(&[m]).expect("one");
+        let row = DynamicRow {
+            protocol: p,
+            set: "test".into(),
+            frames: 4,
+            masked_frames: 3,
+            mask_fraction: 0.042,
+            rules: vec![MaskRule::StaticRender],
+            cells: vec![
+                Cell {
+                    motion: Motion::Velocity,
+                    psnr: stat(18.5),
+                    ssim: stat(0.6),
+                },
+                Cell {
+                    motion: Motion::Deformation,
+                    psnr: stat(17.25),
+                    ssim: stat(0.5),
+                },
+            ],
+        };
+        let s = StudySummary::new(
+            provenance(1),
+            vec![p],
+            vec![Motion::Velocity, Motion::Deformation],
+            vec![
+                record(p, Motion::Velocity, 0, 25.0),
+                record(p, Motion::Deformation, 0, 24.0),
+            ],
+        )
+        .with_dynamic(vec![row], None, Vec::new());
+        let md = s.markdown();
+        let whole = md
+            .find("| sparse:4 | test | 4 | 25.00")
+            .expect("whole-image row");
+        let dynamic = md
+            .find("| sparse:4 | test | 3 of 4 | 4.2% | static_render | 18.50 / 0.600 | 17.25 / 0.500 | +1.25 |")
+            .unwrap_or_else(|| panic!("{md}"));
+        assert!(whole < dynamic, "the dynamic table comes second");
+        assert!(md.contains("Dynamic-region PSNR"), "{md}");
+        let plain = StudySummary::new(provenance(1), vec![p], vec![Motion::Velocity], Vec::new());
+        assert!(
+            !plain.markdown().contains("Dynamic-region"),
+            "no table without rows"
+        );
     }
 
     #[test]
