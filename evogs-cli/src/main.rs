@@ -15,6 +15,7 @@ use evogs_cli::app::evaluate::{evaluate_run, parse_range};
 use evogs_cli::app::export::{SEQUENCE_FILE, export, export_sequence};
 use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
 use evogs_cli::app::render::{CameraPath, RenderArgs, parse_times, render_sequence};
+use evogs_cli::app::scenes::{ScenesArgs, write_scenes};
 use evogs_cli::app::study::{StudyArgs, StudyProtocol, parse_motions, run_study};
 use evogs_cli::app::train::{TrainArgs, positive_count, train};
 use evogs_ode::Method;
@@ -179,6 +180,23 @@ enum Cmd {
         #[arg(long)]
         json: Option<PathBuf>,
         /// Scene seed.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+    },
+    /// Write the procedural scenes with known motion (D-NeRF layout, motion.json and motion
+    /// masks beside): OUT/<scene>/monocular and OUT/<scene>/multiview (docs/scenes.md).
+    Scenes {
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Only these scenes, comma-separated (translate, throw, spin, orbit, pendulum,
+        /// wave, pair).
+        #[arg(long)]
+        only: Option<String>,
+        /// Image width and height (pixels).
+        #[arg(long, default_value_t = 128)]
+        size: usize,
+        /// Generator seed.
         #[arg(long, default_value_t = 0)]
         seed: u64,
     },
@@ -506,6 +524,31 @@ fn run(cli: Cli) -> Result<()> {
             print!("{}", report.table());
             if let Some(p) = &args.json {
                 println!("\nreport: {}", p.display());
+            }
+        }
+        Cmd::Scenes {
+            out,
+            only,
+            size,
+            seed,
+        } => {
+            let args = ScenesArgs {
+                out,
+                only: only
+                    .map(|s| s.split(',').map(|n| n.trim().to_string()).collect())
+                    .unwrap_or_default(),
+                size,
+                seed,
+            };
+            for d in write_scenes(&args, &mut term)? {
+                let frames: Vec<String> =
+                    d.frames.iter().map(|(s, n)| format!("{n} {s}")).collect();
+                println!(
+                    "{}: {} Gaussians, {} frames",
+                    d.dir.display(),
+                    d.gaussians,
+                    frames.join(", ")
+                );
             }
         }
         Cmd::Export {

@@ -2,7 +2,10 @@
 //! trained with the same preset, configuration, budget and data in a folder of its own,
 //! evaluated on the protocol's held-out sets, and summarised in `study.json`, `study.md`
 //! (one row per protocol and held-out set, one column per motion, and velocity − deformation
-//! in dB) and `study.png` (grouped bars).
+//! in dB) and `study.png` (grouped bars). Each `future:TAU` protocol with a deformation run
+//! also gets the no-training baselines `hold`, `const-vel` and `const-acc` computed from that
+//! run (`RUN/baselines.json`), and on a dataset with a `motion.json` (`evogs scenes`) every
+//! future run and baseline gets its trajectory error at t = 1.3.
 //!
 //! ```text
 //! OUT/study.json  study.md  study.png
@@ -15,13 +18,17 @@
 //! reused. Every input is checked before the first iteration: the protocols and their
 //! held-out frames, the configuration of every run, the dataset and the output folder.
 
+mod baselines;
 mod progress;
 mod protocol;
 mod report;
 mod runner;
 
 pub use protocol::{HeldOutSet, StudyProtocol};
-pub use report::{Cell, CostRow, Provenance, Row, RunRecord, SetMetrics, Stat, StudySummary};
+pub use report::{
+    BaselineRecord, BaselineRow, BaselineSets, Cell, CostRow, Provenance, Row, RunRecord,
+    SetMetrics, Stat, StudySummary, TrajectoryRow,
+};
 
 use super::Reporter;
 use super::error::CommandError;
@@ -356,6 +363,10 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         args.motions.clone(),
         records,
     );
+    let truth = evogs::scenes::GroundTruth::of_dataset(&data).map_err(CommandError)?;
+    let baseline_records =
+        baselines::baselines(&runs, &ds, &sets, &args.protocols, truth.as_ref(), rep)?;
+    let summary = summary.with_baselines(&baseline_records);
     let json = args.out.join("study.json");
     let markdown = args.out.join("study.md");
     let chart = args.out.join("study.png");

@@ -2,7 +2,9 @@
 //! (`study.json`) with its aggregated table, and the table as Markdown (`study.md`).
 
 use super::protocol::StudyProtocol;
+use evogs::extrapolate::Extrapolation;
 use evogs::model::Motion;
+use evogs::scenes::TrajectoryError;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 
@@ -45,6 +47,72 @@ pub struct RunRecord {
     pub threads: usize,
     /// Metrics per held-out set.
     pub sets: Vec<SetMetrics>,
+    /// Trajectory error at t = 1.3 against the dataset's `motion.json` (future protocols of
+    /// datasets that have one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<TrajectoryError>,
+}
+
+/// One baseline's metrics in a [`BaselineRecord`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BaselineSets {
+    /// The baseline.
+    pub baseline: Extrapolation,
+    /// Metrics per held-out set beyond the split time.
+    pub sets: Vec<SetMetrics>,
+    /// Trajectory error at t = 1.3, when the dataset has `motion.json`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<TrajectoryError>,
+}
+
+/// The no-training baselines computed from one deformation run (`RUN/baselines.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BaselineRecord {
+    /// The protocol (a `future:TAU`).
+    pub protocol: StudyProtocol,
+    /// Index of the repeat of the deformation run.
+    pub repeat: usize,
+    /// The deformation run's folder, relative to the study folder.
+    pub folder: String,
+    /// Hash of the deformation run's configuration.
+    pub config_hash: String,
+    /// The end of the window the baselines extrapolate from (`TAU`).
+    pub end: f64,
+    /// The finite-difference step.
+    pub step: f64,
+    /// Every baseline.
+    pub baselines: Vec<BaselineSets>,
+}
+
+/// A row of the baselines' table: one protocol, held-out set and baseline.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BaselineRow {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The held-out set.
+    pub set: String,
+    /// Frames in the set.
+    pub frames: usize,
+    /// The baseline (`hold`, `const-vel`, `const-acc`).
+    pub baseline: Extrapolation,
+    /// PSNR over the deformation runs' repeats (dB).
+    pub psnr: Stat,
+    /// SSIM over repeats.
+    pub ssim: Stat,
+}
+
+/// Trajectory error at t = 1.3 relative to the distance travelled since the split time, of
+/// one motion or baseline of one protocol, over repeats.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrajectoryRow {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The motion or baseline.
+    pub method: String,
+    /// Relative error over repeats.
+    pub relative: Stat,
+    /// Mean absolute error over repeats (scene units).
+    pub mean_error: Stat,
 }
 
 /// Mean and spread of one metric over repeats.
@@ -182,6 +250,12 @@ pub struct StudySummary {
     pub costs: Vec<CostRow>,
     /// Every run.
     pub runs: Vec<RunRecord>,
+    /// The no-training baselines of the future protocols (from the deformation runs).
+    #[serde(default)]
+    pub baselines: Vec<BaselineRow>,
+    /// Trajectory errors, when the dataset has `motion.json`.
+    #[serde(default)]
+    pub trajectories: Vec<TrajectoryRow>,
 }
 
 impl StudySummary {
@@ -253,6 +327,19 @@ impl StudySummary {
                 }
             }
         }
+        let mut trajectories = Vec::new();
+        for &p in &protocols {
+            for &m in &motions {
+                let errs: Vec<TrajectoryError> = runs
+                    .iter()
+                    .filter(|r| r.protocol == p && r.motion == m)
+                    .filter_map(|r| r.trajectory)
+                    .collect();
+                if let Some(row) = TrajectoryRow::of(p, m.as_str(), &errs) {
+                    trajectories.push(row);
+                }
+            }
+        }
         Self {
             provenance,
             protocols,
@@ -260,7 +347,58 @@ impl StudySummary {
             rows,
             costs,
             runs,
+            baselines: Vec::new(),
+            trajectories,
         }
+    }
+
+    /// Adds the baselines' rows (and their trajectory errors) from the baseline records.
+    #[must_use]
+    pub fn with_baselines(mut self, records: &[BaselineRecord]) -> Self {
+        for &p in &self.protocols {
+            let of_p: Vec<&BaselineRecord> = records.iter().filter(|r| r.protocol == p).collect();
+            for kind in Extrapolation::ALL {
+                let of_kind: Vec<&BaselineSets> = of_p
+                    .iter()
+                    .flat_map(|r| r.baselines.iter().filter(|b| b.baseline == kind))
+                    .collect();
+                let mut names: Vec<(&str, usize)> = Vec::new();
+                for b in &of_kind {
+                    for s in &b.sets {
+                        if !names.iter().any(|(n, _)| *n == s.set) {
+                            names.push((&s.set, s.frames));
+                        }
+                    }
+                }
+                for (name, frames) in names {
+                    let pick = |f: fn(&SetMetrics) -> f64| -> Vec<f64> {
+                        of_kind
+                            .iter()
+                            .filter_map(|b| b.sets.iter().find(|s| s.set == name))
+                            .map(f)
+                            .collect()
+                    };
+                    if let (Some(psnr), Some(ssim)) =
+                        (Stat::of(&pick(|s| s.psnr)), Stat::of(&pick(|s| s.ssim)))
+                    {
+                        self.baselines.push(BaselineRow {
+                            protocol: p,
+                            set: name.to_string(),
+                            frames,
+                            baseline: kind,
+                            psnr,
+                            ssim,
+                        });
+                    }
+                }
+                let errs: Vec<TrajectoryError> =
+                    of_kind.iter().filter_map(|b| b.trajectory).collect();
+                if let Some(row) = TrajectoryRow::of(p, kind.as_str(), &errs) {
+                    self.trajectories.push(row);
+                }
+            }
+        }
+        self
     }
 
     /// The table as Markdown: a row per protocol and held-out set, PSNR / SSIM per motion
@@ -350,11 +488,68 @@ impl StudySummary {
                 fmt_stat(c.gaussians, 0)
             );
         }
+        self.markdown_extras(&mut s);
         s
+    }
+
+    /// The baselines' and trajectory tables (empty when there are none).
+    fn markdown_extras(&self, s: &mut String) {
+        if !self.baselines.is_empty() {
+            s.push_str(
+                "\nNo-training baselines from the deformation run at the split time (hold, \
+                 constant velocity, constant acceleration): PSNR (dB) / SSIM.\n\n",
+            );
+            s.push_str("| protocol | held-out set | frames | baseline | PSNR / SSIM |\n");
+            s.push_str("|---|---|---|---|---|\n");
+            for b in &self.baselines {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} / {} |",
+                    b.protocol,
+                    b.set,
+                    b.frames,
+                    b.baseline.as_str(),
+                    fmt_stat(b.psnr, 2),
+                    fmt_stat(b.ssim, 3)
+                );
+            }
+        }
+        if !self.trajectories.is_empty() {
+            s.push_str(
+                "\nTrajectory error at t = 1.3 of the Gaussians on moving bodies (motion.json): \
+                 mean error relative to the mean distance travelled since the split time, and \
+                 the mean error.\n\n",
+            );
+            s.push_str("| protocol | motion or baseline | relative error | mean error |\n");
+            s.push_str("|---|---|---|---|\n");
+            for t in &self.trajectories {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} |",
+                    t.protocol,
+                    t.method,
+                    fmt_stat(t.relative, 3),
+                    fmt_stat(t.mean_error, 4)
+                );
+            }
+        }
     }
 
     fn has_diff(&self) -> bool {
         self.motions.contains(&Motion::Velocity) && self.motions.contains(&Motion::Deformation)
+    }
+}
+
+impl TrajectoryRow {
+    fn of(protocol: StudyProtocol, method: &str, errs: &[TrajectoryError]) -> Option<Self> {
+        let rel: Vec<f64> = errs.iter().map(|e| e.relative).collect();
+        let abs: Vec<f64> = errs.iter().map(|e| e.mean_error).collect();
+        Some(Self {
+            protocol,
+            method: method.to_string(),
+            relative: Stat::of(&rel)?,
+            mean_error: Stat::of(&abs)?,
+        })
     }
 }
 
@@ -388,6 +583,7 @@ mod tests {
                 psnr,
                 ssim: 0.9,
             }],
+            trajectory: None,
         }
     }
 
