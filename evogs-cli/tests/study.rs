@@ -125,6 +125,34 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
         md.contains("| sparse:4 | train views at dropped times | 56 |"),
         "{md}"
     );
+    // The no-training baselines of future:0.75, from its deformation run, beyond 0.75 only.
+    let base: Vec<(&str, &str)> = s
+        .baselines
+        .iter()
+        .map(|b| (b.baseline.as_str(), b.set.as_str()))
+        .collect();
+    assert_eq!(
+        base,
+        [
+            ("hold", "test t > 0.75"),
+            ("const-vel", "test t > 0.75"),
+            ("const-acc", "test t > 0.75")
+        ],
+        "baseline rows"
+    );
+    for b in &s.baselines {
+        assert!(b.psnr.mean > 10.0 && b.frames == 2, "{b:?}");
+    }
+    assert!(
+        out.join("runs/future0.75-deformation-s0/baselines.json")
+            .is_file(),
+        "stored beside the deformation run"
+    );
+    assert!(
+        md.contains("| future:0.75 | test t > 0.75 | 2 | const-acc |"),
+        "{md}"
+    );
+    assert!(s.trajectories.is_empty(), "toys-mini has no motion.json");
     let png = image::open(&o.chart).expect("study.png");
     assert!(png.width() > 300 && png.height() > 300, "a chart");
 
@@ -135,6 +163,10 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
     assert_eq!((again.trained, again.reused), (0, 9), "all reused");
     assert_eq!(mtime(&ckpt), before, "the checkpoint was not rewritten");
     assert_eq!(again.summary.rows, o.summary.rows, "the same table");
+    assert_eq!(
+        again.summary.baselines, o.summary.baselines,
+        "the same baselines"
+    );
 
     // An interrupted run: the planned configuration and a checkpoint at iteration 12 in its
     // folder, no record. The study resumes it and ends where the uninterrupted run ended.

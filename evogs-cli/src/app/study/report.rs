@@ -663,4 +663,79 @@ mod tests {
             "no column"
         );
     }
+
+    #[test]
+    fn baselines_are_rows_of_their_own_with_their_trajectory_errors() {
+        let p = StudyProtocol::Future(0.75);
+        let mut runs = vec![record(p, Motion::Deformation, 0, 21.0)];
+        let err = |relative: f64| TrajectoryError {
+            split: 0.75,
+            time: 1.3,
+            gaussians: 10,
+            mean_error: relative * 0.5,
+            mean_travel: 0.5,
+            relative,
+        };
+        runs[0].trajectory = Some(err(0.4));
+        let sets = |psnr: f64| {
+            vec![SetMetrics {
+                set: "test t > 0.75".into(),
+                frames: 5,
+                psnr,
+                ssim: 0.8,
+            }]
+        };
+        let base = BaselineRecord {
+            protocol: p,
+            repeat: 0,
+            folder: "runs/future0.75-deformation-s0".into(),
+            config_hash: "h".into(),
+            end: 0.75,
+            step: 0.04,
+            baselines: vec![
+                BaselineSets {
+                    baseline: Extrapolation::Hold,
+                    sets: sets(19.0),
+                    trajectory: Some(err(1.0)),
+                },
+                BaselineSets {
+                    baseline: Extrapolation::ConstVel,
+                    sets: sets(20.5),
+                    trajectory: Some(err(0.2)),
+                },
+                BaselineSets {
+                    baseline: Extrapolation::ConstAcc,
+                    sets: sets(20.0),
+                    trajectory: None,
+                },
+            ],
+        };
+        let s = StudySummary::new(provenance(1), vec![p], vec![Motion::Deformation], runs)
+            .with_baselines(&[base]);
+        let names: Vec<&str> = s.baselines.iter().map(|b| b.baseline.as_str()).collect();
+        assert_eq!(names, ["hold", "const-vel", "const-acc"], "rows");
+        assert!(
+            (s.baselines[1].psnr.mean - 20.5).abs() < 1e-12,
+            "{:?}",
+            s.baselines[1]
+        );
+        let methods: Vec<&str> = s.trajectories.iter().map(|t| t.method.as_str()).collect();
+        assert_eq!(
+            methods,
+            ["deformation", "hold", "const-vel"],
+            "trajectory rows"
+        );
+        let md = s.markdown();
+        assert!(
+            md.contains("| future:0.75 | test t > 0.75 | 5 | const-vel | 20.50 / 0.800 |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| future:0.75 | hold | 1.000 | 0.5000 |"),
+            "{md}"
+        );
+        let back: StudySummary =
+            serde_json::from_str(&serde_json::to_string(&s).expect("json")).expect("parse");
+        assert_eq!(back, s, "study.json round trip");
+    }
 }
