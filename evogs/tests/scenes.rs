@@ -43,6 +43,11 @@ fn a_generated_scene_loads_and_its_ground_truth_reproduces_the_gaussians() {
     )
     .expect("written");
     assert_eq!(
+        small().frame_count(Variant::Monocular),
+        w.frames.iter().map(|(_, n)| n).sum::<usize>(),
+        "frame count"
+    );
+    assert_eq!(
         w.frames,
         vec![("train", 6), ("val", 2), ("test", 3), ("future", 2)],
         "frames per split"
@@ -180,6 +185,8 @@ fn the_multiview_variant_holds_out_one_ring_camera_and_is_deterministic() {
     .expect("written");
     let ds = Dataset::load(&dir, &LoadOptions::default()).expect("loads");
     assert_eq!(ds.train.len(), 2 * 3, "two ring cameras at three times");
+    let all = ds.train.len() + ds.val.len() + ds.test.len() + ds.future.len();
+    assert_eq!(small().frame_count(Variant::Multiview), all, "frame count");
     let test_cam = ds.test[0].c2w;
     assert!(ds.test.iter().all(|v| v.c2w == test_cam), "one test camera");
     assert!(

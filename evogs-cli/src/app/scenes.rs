@@ -67,7 +67,10 @@ pub fn write_scenes(
         let scene = BuiltScene::new(spec, Spacing::default(), args.seed.wrapping_add(k as u64));
         for variant in [Variant::Monocular, Variant::Multiview] {
             let dir = args.out.join(spec.name).join(variant.as_str());
-            rep.start(&format!("{} / {}", spec.name, variant.as_str()), 0);
+            rep.start(
+                &format!("{} / {}", spec.name, variant.as_str()),
+                layout.frame_count(variant) as u64,
+            );
             let w = write_scene(&scene, variant, &layout, &dir, Par::best(), |d, n| {
                 rep.progress(d as u64, &format!("{d}/{n} frames"));
             })

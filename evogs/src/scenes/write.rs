@@ -72,6 +72,18 @@ impl Default for Layout {
     }
 }
 
+impl Layout {
+    /// Frames of every split together for `variant`.
+    #[must_use]
+    pub const fn frame_count(&self, variant: Variant) -> usize {
+        let held_out = self.val_times + self.test_times + self.future_times;
+        match variant {
+            Variant::Monocular => self.train_times + held_out,
+            Variant::Multiview => self.ring.saturating_sub(1) * self.ring_times + held_out,
+        }
+    }
+}
+
 /// One frame to render.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 struct Frame {

@@ -140,7 +140,11 @@ pub(super) fn baselines(
         let json = serde_json::to_string_pretty(&record)
             .map_err(|e| at(format!("cannot encode the baselines: {e}")))?;
         write_atomic(&path, json.as_bytes())?;
-        out.push(record);
+        // The table is built from the record as stored (as a reused one is read), so a study
+        // that reuses it reproduces its table exactly.
+        let stored: BaselineRecord = serde_json::from_str(&json)
+            .map_err(|e| at(format!("cannot read back the baselines: {e}")))?;
+        out.push(stored);
     }
     Ok(out)
 }
