@@ -57,6 +57,9 @@ pub(crate) enum Cmd {
     /// seconds per iteration, a breakdown by phase, peak memory, the GFLOP/s of the field's
     /// matrix products and the speed-up over one thread (docs/performance.md).
     Bench(BenchArgs),
+    /// Write the procedural scenes with known motion (D-NeRF layout, motion.json and motion
+    /// masks beside): OUT/<scene>/monocular and OUT/<scene>/multiview (docs/scenes.md).
+    Scenes(evogs_cli::app::scenes::ScenesArgs),
     /// Show a run in the browser: a local server on 127.0.0.1 computes the Gaussians at
     /// each time the page asks for (prints the address), or --export writes a static page.
     View(evogs_cli::app::view::ViewArgs),

@@ -18,6 +18,7 @@ use evogs_cli::app::evaluate::evaluate_run;
 use evogs_cli::app::export::{export, export_sequence};
 use evogs_cli::app::inject::inject;
 use evogs_cli::app::render::render_sequence;
+use evogs_cli::app::scenes::write_scenes;
 use evogs_cli::app::study::run_study;
 use evogs_cli::app::train::train;
 use evogs_verify::check::grad::check_grad;
@@ -92,6 +93,7 @@ fn run(cli: Cli) -> CommandResult<Verdict> {
                 return Err(CommandError::new("export needs --time T or --times A:B:N"));
             }
         },
+        Cmd::Scenes(args) => output::scenes(&write_scenes(&args, &mut term)?),
         Cmd::View(args) => evogs_cli::app::view::view(&args, &mut term)?,
         Cmd::CheckOrder(c) => {
             let results =

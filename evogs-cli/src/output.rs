@@ -151,3 +151,16 @@ pub(crate) fn verify_error(e: &impl std::fmt::Display) {
 pub(crate) fn verify_summary(passed: usize, total: usize) {
     println!("verify: {passed} of {total} files passed");
 }
+
+/// `evogs scenes`: one line per dataset written.
+pub(crate) fn scenes(written: &[evogs_cli::app::scenes::WrittenDataset]) {
+    for d in written {
+        let frames: Vec<String> = d.frames.iter().map(|(s, n)| format!("{n} {s}")).collect();
+        println!(
+            "{}: {} Gaussians, {} frames",
+            d.dir.display(),
+            d.gaussians,
+            frames.join(", ")
+        );
+    }
+}

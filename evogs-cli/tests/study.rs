@@ -127,6 +127,34 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
         md.contains("| sparse:4 | train views at dropped times | 56 |"),
         "{md}"
     );
+    // The no-training baselines of future:0.75, from its deformation run, beyond 0.75 only.
+    let base: Vec<(&str, &str)> = s
+        .baselines
+        .iter()
+        .map(|b| (b.baseline.as_str(), b.set.as_str()))
+        .collect();
+    assert_eq!(
+        base,
+        [
+            ("hold", "test t > 0.75"),
+            ("const-vel", "test t > 0.75"),
+            ("const-acc", "test t > 0.75")
+        ],
+        "baseline rows"
+    );
+    for b in &s.baselines {
+        assert!(b.psnr.mean > 10.0 && b.frames == 2, "{b:?}");
+    }
+    assert!(
+        out.join("runs/future0.75-deformation-s0/baselines.json")
+            .is_file(),
+        "stored beside the deformation run"
+    );
+    assert!(
+        md.contains("| future:0.75 | test t > 0.75 | 2 | const-acc |"),
+        "{md}"
+    );
+    assert!(s.trajectories.is_empty(), "toys-mini has no motion.json");
     let png = image::open(&o.chart).expect("study.png");
     assert!(png.width() > 300 && png.height() > 300, "a chart");
 
@@ -212,6 +240,10 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
     assert_eq!(
         again.summary.dynamic_rows, o.summary.dynamic_rows,
         "the same dynamic-region table"
+    );
+    assert_eq!(
+        again.summary.baselines, o.summary.baselines,
+        "the same baselines"
     );
 
     // An interrupted run: the planned configuration and a checkpoint at iteration 12 in its
@@ -363,5 +395,60 @@ fn bad_input_is_refused_before_any_training() {
         e.contains("another configuration") && e.contains("--force"),
         "{e}"
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn on_a_scene_with_known_motion_every_future_run_and_baseline_has_a_trajectory_error() {
+    use evogs::scenes::{BuiltScene, Layout, Spacing, Variant, select, write_scene};
+    let (dir, cfg) = workdir("scene");
+    let data = dir.join("translate");
+    let spec = &select(&["translate".to_string()]).expect("known")[0];
+    let layout = Layout {
+        size: 64,
+        train_times: 16,
+        test_times: 4,
+        val_times: 1,
+        future_times: 2,
+        ..Layout::default()
+    };
+    write_scene(
+        &BuiltScene::new(spec, Spacing::default(), 1),
+        Variant::Monocular,
+        &layout,
+        &data,
+        evogs_math::Par::Seq,
+        |_, _| {},
+    )
+    .expect("scene");
+    let a = StudyArgs {
+        data: Some(data),
+        protocols: vec![StudyProtocol::Future(0.75)],
+        motions: vec![Motion::Velocity, Motion::Deformation],
+        ..args(&dir.join("study"), &cfg)
+    };
+    let o = run_study(&a, &mut Silent).expect("study");
+    let methods: Vec<&str> = o
+        .summary
+        .trajectories
+        .iter()
+        .map(|t| t.method.as_str())
+        .collect();
+    assert_eq!(
+        methods,
+        ["velocity", "deformation", "hold", "const-vel", "const-acc"],
+        "a trajectory row per future run and baseline"
+    );
+    for t in &o.summary.trajectories {
+        assert!(
+            t.relative.mean.is_finite() && t.relative.mean >= 0.0,
+            "{t:?}"
+        );
+    }
+    // Holding the state still is off by exactly the distance the box travels.
+    let hold = &o.summary.trajectories[2];
+    assert!((hold.relative.mean - 1.0).abs() < 1e-9, "{hold:?}");
+    let md = std::fs::read_to_string(&o.markdown).expect("md");
+    assert!(md.contains("| future:0.75 | hold | 1.000 |"), "{md}");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -11,6 +11,8 @@
 //! | [`train`] | one step's loss and exact gradient, Adam with the EvoGS schedules, densification, the trainer |
 //! | [`run`] | checkpoints (bit-for-bit resumable) |
 //! | [`eval`] | PSNR and SSIM on held-out views, whole and inside motion masks |
+//! | [`extrapolate`] | no-training baselines: hold, constant-velocity and constant-acceleration extrapolation |
+//! | [`scenes`] | procedural scenes with closed-form motion and their ground truth (`motion.json`) |
 //! | [`config`] | the TOML training configuration and its presets |
 //! | [`atomic`] | every output file written under a temporary name and renamed when complete |
 //!
@@ -31,9 +33,11 @@ pub mod atomic;
 pub mod config;
 pub mod data;
 pub mod eval;
+pub mod extrapolate;
 pub mod field;
 pub mod model;
 pub mod run;
+pub mod scenes;
 pub mod train;
 
 /// The examples of `README.md`, run as doctests.

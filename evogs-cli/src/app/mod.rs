@@ -14,6 +14,7 @@ pub mod load;
 pub mod paths;
 pub mod plot;
 pub mod render;
+pub mod scenes;
 pub mod study;
 pub mod train;
 pub mod view;

@@ -3,7 +3,11 @@
 //! evaluated on the protocol's held-out sets, and summarised in `study.json`, `study.md`
 //! (one row per protocol and held-out set, one column per motion, and velocity − deformation
 //! in dB; then the same inside the frames' motion masks) and `study.png` (grouped bars), with
-//! held-out PSNR against time per protocol in `study-time-<protocol>.png`.
+//! held-out PSNR against time per protocol in `study-time-<protocol>.png`. Each `future:TAU`
+//! protocol with a deformation run also gets the no-training baselines `hold`, `const-vel`
+//! and `const-acc` computed from that run (`RUN/baselines.json`), and on a dataset with a
+//! `motion.json` (`evogs scenes`) every future run and baseline gets its trajectory error at
+//! t = 1.3.
 //!
 //! ```text
 //! OUT/study.json  study.md  study.png  study-time-<protocol>.png
@@ -16,6 +20,7 @@
 //! reused. Every input is checked before the first iteration: the protocols and their
 //! held-out frames, the configuration of every run, the dataset and the output folder.
 
+mod baselines;
 mod progress;
 mod protocol;
 mod report;
@@ -24,8 +29,8 @@ mod timeline;
 
 pub use protocol::{HeldOutSet, StudyProtocol};
 pub use report::{
-    Cell, CostRow, CurvePoint, DynamicRow, MotionCurve, Provenance, Row, RunRecord, SetMetrics,
-    Stat, StudySummary, Timeline,
+    BaselineRecord, BaselineRow, BaselineSets, Cell, CostRow, CurvePoint, DynamicRow, MotionCurve,
+    Provenance, Row, RunRecord, SetMetrics, Stat, StudySummary, Timeline, TrajectoryRow,
 };
 
 use super::Reporter;
@@ -387,6 +392,10 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         records,
     )
     .with_dynamic(dynamic.rows, dynamic.note, dynamic.timelines);
+    let truth = evogs::scenes::GroundTruth::of_dataset(&data).map_err(CommandError::new)?;
+    let baseline_records =
+        baselines::baselines(&runs, &ds, &sets, &args.protocols, truth.as_ref(), rep)?;
+    let summary = summary.with_baselines(&baseline_records);
     let json = args.out.join("study.json");
     let markdown = args.out.join("study.md");
     let chart = args.out.join("study.png");

@@ -4,7 +4,9 @@
 
 use super::protocol::StudyProtocol;
 use evogs::eval::dynamic::MaskRule;
+use evogs::extrapolate::Extrapolation;
 use evogs::model::Motion;
+use evogs::scenes::TrajectoryError;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 
@@ -47,6 +49,72 @@ pub struct RunRecord {
     pub threads: usize,
     /// Metrics per held-out set.
     pub sets: Vec<SetMetrics>,
+    /// Trajectory error at t = 1.3 against the dataset's `motion.json` (future protocols of
+    /// datasets that have one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<TrajectoryError>,
+}
+
+/// One baseline's metrics in a [`BaselineRecord`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BaselineSets {
+    /// The baseline.
+    pub baseline: Extrapolation,
+    /// Metrics per held-out set beyond the split time.
+    pub sets: Vec<SetMetrics>,
+    /// Trajectory error at t = 1.3, when the dataset has `motion.json`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<TrajectoryError>,
+}
+
+/// The no-training baselines computed from one deformation run (`RUN/baselines.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BaselineRecord {
+    /// The protocol (a `future:TAU`).
+    pub protocol: StudyProtocol,
+    /// Index of the repeat of the deformation run.
+    pub repeat: usize,
+    /// The deformation run's folder, relative to the study folder.
+    pub folder: String,
+    /// Hash of the deformation run's configuration.
+    pub config_hash: String,
+    /// The end of the window the baselines extrapolate from (`TAU`).
+    pub end: f64,
+    /// The finite-difference step.
+    pub step: f64,
+    /// Every baseline.
+    pub baselines: Vec<BaselineSets>,
+}
+
+/// A row of the baselines' table: one protocol, held-out set and baseline.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BaselineRow {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The held-out set.
+    pub set: String,
+    /// Frames in the set.
+    pub frames: usize,
+    /// The baseline (`hold`, `const-vel`, `const-acc`).
+    pub baseline: Extrapolation,
+    /// PSNR over the deformation runs' repeats (dB).
+    pub psnr: Stat,
+    /// SSIM over repeats.
+    pub ssim: Stat,
+}
+
+/// Trajectory error at t = 1.3 relative to the distance travelled since the split time, of
+/// one motion or baseline of one protocol, over repeats.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrajectoryRow {
+    /// The protocol.
+    pub protocol: StudyProtocol,
+    /// The motion or baseline.
+    pub method: String,
+    /// Relative error over repeats.
+    pub relative: Stat,
+    /// Mean absolute error over repeats (scene units).
+    pub mean_error: Stat,
 }
 
 /// Mean and spread of one metric over repeats.
@@ -248,6 +316,12 @@ pub struct StudySummary {
     /// Held-out PSNR against time, one per protocol (what `study-time-<protocol>.png` draws).
     #[serde(default)]
     pub timelines: Vec<Timeline>,
+    /// The no-training baselines of the future protocols (from the deformation runs).
+    #[serde(default)]
+    pub baselines: Vec<BaselineRow>,
+    /// Trajectory errors, when the dataset has `motion.json`.
+    #[serde(default)]
+    pub trajectories: Vec<TrajectoryRow>,
 }
 
 impl StudySummary {
@@ -319,6 +393,19 @@ impl StudySummary {
                 }
             }
         }
+        let mut trajectories = Vec::new();
+        for &p in &protocols {
+            for &m in &motions {
+                let errs: Vec<TrajectoryError> = runs
+                    .iter()
+                    .filter(|r| r.protocol == p && r.motion == m)
+                    .filter_map(|r| r.trajectory)
+                    .collect();
+                if let Some(row) = TrajectoryRow::of(p, m.as_str(), &errs) {
+                    trajectories.push(row);
+                }
+            }
+        }
         Self {
             provenance,
             protocols,
@@ -329,6 +416,8 @@ impl StudySummary {
             dynamic_rows: Vec::new(),
             dynamic_note: None,
             timelines: Vec::new(),
+            baselines: Vec::new(),
+            trajectories,
         }
     }
 
@@ -343,6 +432,55 @@ impl StudySummary {
         self.dynamic_rows = rows;
         self.dynamic_note = note;
         self.timelines = timelines;
+        self
+    }
+
+    /// Adds the baselines' rows (and their trajectory errors) from the baseline records.
+    #[must_use]
+    pub fn with_baselines(mut self, records: &[BaselineRecord]) -> Self {
+        for &p in &self.protocols {
+            let of_p: Vec<&BaselineRecord> = records.iter().filter(|r| r.protocol == p).collect();
+            for kind in Extrapolation::ALL {
+                let of_kind: Vec<&BaselineSets> = of_p
+                    .iter()
+                    .flat_map(|r| r.baselines.iter().filter(|b| b.baseline == kind))
+                    .collect();
+                let mut names: Vec<(&str, usize)> = Vec::new();
+                for b in &of_kind {
+                    for s in &b.sets {
+                        if !names.iter().any(|(n, _)| *n == s.set) {
+                            names.push((&s.set, s.frames));
+                        }
+                    }
+                }
+                for (name, frames) in names {
+                    let pick = |f: fn(&SetMetrics) -> f64| -> Vec<f64> {
+                        of_kind
+                            .iter()
+                            .filter_map(|b| b.sets.iter().find(|s| s.set == name))
+                            .map(f)
+                            .collect()
+                    };
+                    if let (Some(psnr), Some(ssim)) =
+                        (Stat::of(&pick(|s| s.psnr)), Stat::of(&pick(|s| s.ssim)))
+                    {
+                        self.baselines.push(BaselineRow {
+                            protocol: p,
+                            set: name.to_string(),
+                            frames,
+                            baseline: kind,
+                            psnr,
+                            ssim,
+                        });
+                    }
+                }
+                let errs: Vec<TrajectoryError> =
+                    of_kind.iter().filter_map(|b| b.trajectory).collect();
+                if let Some(row) = TrajectoryRow::of(p, kind.as_str(), &errs) {
+                    self.trajectories.push(row);
+                }
+            }
+        }
         self
     }
 
@@ -434,6 +572,7 @@ impl StudySummary {
                 fmt_stat(c.gaussians, 0)
             );
         }
+        self.markdown_extras(&mut s);
         s
     }
 
@@ -506,8 +645,64 @@ impl StudySummary {
         }
     }
 
+    /// The baselines' and trajectory tables (empty when there are none).
+    fn markdown_extras(&self, s: &mut String) {
+        if !self.baselines.is_empty() {
+            s.push_str(
+                "\nNo-training baselines from the deformation run at the split time (hold, \
+                 constant velocity, constant acceleration): PSNR (dB) / SSIM.\n\n",
+            );
+            s.push_str("| protocol | held-out set | frames | baseline | PSNR / SSIM |\n");
+            s.push_str("|---|---|---|---|---|\n");
+            for b in &self.baselines {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} / {} |",
+                    b.protocol,
+                    b.set,
+                    b.frames,
+                    b.baseline.as_str(),
+                    fmt_stat(b.psnr, 2),
+                    fmt_stat(b.ssim, 3)
+                );
+            }
+        }
+        if !self.trajectories.is_empty() {
+            s.push_str(
+                "\nTrajectory error at t = 1.3 of the Gaussians on moving bodies (motion.json): \
+                 mean error relative to the mean distance travelled since the split time, and \
+                 the mean error.\n\n",
+            );
+            s.push_str("| protocol | motion or baseline | relative error | mean error |\n");
+            s.push_str("|---|---|---|---|\n");
+            for t in &self.trajectories {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} |",
+                    t.protocol,
+                    t.method,
+                    fmt_stat(t.relative, 3),
+                    fmt_stat(t.mean_error, 4)
+                );
+            }
+        }
+    }
+
     fn has_diff(&self) -> bool {
         self.motions.contains(&Motion::Velocity) && self.motions.contains(&Motion::Deformation)
+    }
+}
+
+impl TrajectoryRow {
+    fn of(protocol: StudyProtocol, method: &str, errs: &[TrajectoryError]) -> Option<Self> {
+        let rel: Vec<f64> = errs.iter().map(|e| e.relative).collect();
+        let abs: Vec<f64> = errs.iter().map(|e| e.mean_error).collect();
+        Some(Self {
+            protocol,
+            method: method.to_string(),
+            relative: Stat::of(&rel)?,
+            mean_error: Stat::of(&abs)?,
+        })
     }
 }
 
@@ -541,6 +736,7 @@ mod tests {
                 psnr,
                 ssim: 0.9,
             }],
+            trajectory: None,
         }
     }
 
@@ -669,5 +865,80 @@ mod tests {
             !s.markdown().contains("velocity − deformation"),
             "no column"
         );
+    }
+
+    #[test]
+    fn baselines_are_rows_of_their_own_with_their_trajectory_errors() {
+        let p = StudyProtocol::Future(0.75);
+        let mut runs = vec![record(p, Motion::Deformation, 0, 21.0)];
+        let err = |relative: f64| TrajectoryError {
+            split: 0.75,
+            time: 1.3,
+            gaussians: 10,
+            mean_error: relative * 0.5,
+            mean_travel: 0.5,
+            relative,
+        };
+        runs[0].trajectory = Some(err(0.4));
+        let sets = |psnr: f64| {
+            vec![SetMetrics {
+                set: "test t > 0.75".into(),
+                frames: 5,
+                psnr,
+                ssim: 0.8,
+            }]
+        };
+        let base = BaselineRecord {
+            protocol: p,
+            repeat: 0,
+            folder: "runs/future0.75-deformation-s0".into(),
+            config_hash: "h".into(),
+            end: 0.75,
+            step: 0.04,
+            baselines: vec![
+                BaselineSets {
+                    baseline: Extrapolation::Hold,
+                    sets: sets(19.0),
+                    trajectory: Some(err(1.0)),
+                },
+                BaselineSets {
+                    baseline: Extrapolation::ConstVel,
+                    sets: sets(20.5),
+                    trajectory: Some(err(0.2)),
+                },
+                BaselineSets {
+                    baseline: Extrapolation::ConstAcc,
+                    sets: sets(20.0),
+                    trajectory: None,
+                },
+            ],
+        };
+        let s = StudySummary::new(provenance(1), vec![p], vec![Motion::Deformation], runs)
+            .with_baselines(&[base]);
+        let names: Vec<&str> = s.baselines.iter().map(|b| b.baseline.as_str()).collect();
+        assert_eq!(names, ["hold", "const-vel", "const-acc"], "rows");
+        assert!(
+            (s.baselines[1].psnr.mean - 20.5).abs() < 1e-12,
+            "{:?}",
+            s.baselines[1]
+        );
+        let methods: Vec<&str> = s.trajectories.iter().map(|t| t.method.as_str()).collect();
+        assert_eq!(
+            methods,
+            ["deformation", "hold", "const-vel"],
+            "trajectory rows"
+        );
+        let md = s.markdown();
+        assert!(
+            md.contains("| future:0.75 | test t > 0.75 | 5 | const-vel | 20.50 / 0.800 |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| future:0.75 | hold | 1.000 | 0.5000 |"),
+            "{md}"
+        );
+        let back: StudySummary =
+            serde_json::from_str(&serde_json::to_string(&s).expect("json")).expect("parse");
+        assert_eq!(back, s, "study.json round trip");
     }
 }

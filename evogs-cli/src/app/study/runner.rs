@@ -11,6 +11,7 @@ use evogs::data::Dataset;
 use evogs::eval::evaluate_views;
 use evogs::model::Motion;
 use evogs::run::checkpoint;
+use evogs::scenes::{GroundTruth, model_trajectory_error};
 use evogs_math::Par;
 use std::path::{Path, PathBuf};
 
@@ -157,6 +158,15 @@ fn execute_here(
             ssim: m.ssim,
         });
     }
+    let trajectory = match run.protocol {
+        StudyProtocol::Future(tau) if run.motion != Motion::Static => {
+            let truth = GroundTruth::of_dataset(&ds.root).map_err(|e| at(CommandError::new(e)))?;
+            truth.and_then(|gt| {
+                model_trajectory_error(&mut model, &gt, tau, super::baselines::TRAJECTORY_TIME)
+            })
+        }
+        _ => None,
+    };
     let record = RunRecord {
         protocol: run.protocol,
         motion: run.motion,
@@ -169,6 +179,7 @@ fn execute_here(
         gaussians: outcome.gaussians,
         threads,
         sets: metrics,
+        trajectory,
     };
     let json = serde_json::to_string_pretty(&record).map_err(|e| {
         at(CommandError::new(format!(
