@@ -85,7 +85,6 @@ fn parse_args() -> Result<Args, String> {
 
 /// The frame of camera `c` at time `t`: smooth colour gradients and two soft discs moving
 /// with time.
-#[allow(clippy::cast_precision_loss, reason = "pixel coordinates")]
 #[allow(clippy::cast_possible_truncation, reason = "colours in f32")]
 fn frame(c: usize, t: f64, w: usize, h: usize) -> Image<f32> {
     let mut img = Image::new(w, h);
@@ -122,7 +121,6 @@ fn frame(c: usize, t: f64, w: usize, h: usize) -> Image<f32> {
 }
 
 fn ring_pose(c: usize, cams: usize, full: (usize, usize)) -> LlffPose {
-    #[allow(clippy::cast_precision_loss, reason = "small counts")]
     let a = std::f64::consts::TAU * c as f64 / cams as f64;
     let eye = Vec3::new(4.0 * a.cos(), 4.0 * a.sin(), 1.5);
     let back = eye * (1.0 / eye.norm());
@@ -135,7 +133,6 @@ fn ring_pose(c: usize, cams: usize, full: (usize, usize)) -> LlffPose {
         [right.z, up.z, back.z, eye.z],
         [0.0, 0.0, 0.0, 1.0],
     ];
-    #[allow(clippy::cast_precision_loss, reason = "image sizes")]
     let (w, h) = (full.0 as f64, full.1 as f64);
     // N3DV's focal length relative to its width (about 1460 px at 2704).
     LlffPose::from_c2w_opengl(c2w, [h, w, 0.54 * w], [1.0, 20.0])
@@ -153,7 +150,6 @@ fn generate(a: &Args) -> Result<(), Box<dyn std::error::Error>> {
         .flat_map(|c| (0..a.frames).map(move |k| (c, k)))
         .collect();
     let write = |&(c, k): &(usize, usize)| -> Result<(), String> {
-        #[allow(clippy::cast_precision_loss, reason = "small counts")]
         let t = k as f64 / (a.frames - 1) as f64;
         let p = a.dir.join(format!("cam{c:02}/images/{k:04}.png"));
         save_png(&frame(c, t, a.width, a.height), &p).map_err(|e| e.to_string())
@@ -200,9 +196,7 @@ fn du_mib(dir: &Path) -> f64 {
                 .sum()
         })
     }
-    #[allow(clippy::cast_precision_loss, reason = "sizes for display")]
-    let mib = walk(dir) as f64 / (1024.0 * 1024.0);
-    mib
+    walk(dir) as f64 / (1024.0 * 1024.0)
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -236,7 +230,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let secs = start.elapsed().as_secs_f64();
     let s = t.views().cache_stats();
-    #[allow(clippy::cast_precision_loss, reason = "counts for display")]
     let mib = |b: usize| b as f64 / (1024.0 * 1024.0);
     let v0 = t.views().cameras()[0];
     let line = serde_json::json!({

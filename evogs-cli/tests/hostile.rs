@@ -204,7 +204,6 @@ fn check(case: &Case) -> Result<(), String> {
     Ok(())
 }
 
-#[allow(clippy::too_many_lines, reason = "one table of cases")]
 fn build(c: &mut Cases) {
     let root = c.root.clone();
     let scene = root.join("scene");

@@ -36,7 +36,6 @@ fn corner(k: usize) -> (usize, usize) {
 }
 
 /// Frame `k` of camera `c`: a textured backdrop (fixed per camera) and the red patch.
-#[allow(clippy::cast_precision_loss, reason = "small integers")]
 fn frame(c: usize, k: usize) -> Image<f32> {
     let mut img = Image::new(W, H);
     for y in 0..H {
@@ -56,7 +55,6 @@ fn frame(c: usize, k: usize) -> Image<f32> {
 
 /// Camera `c` on a ring of radius 4 at height 1.5, looking at the origin (z up).
 fn ring_c2w(c: usize) -> [[f64; 4]; 4] {
-    #[allow(clippy::cast_precision_loss, reason = "small counts")]
     let a = std::f64::consts::TAU * c as f64 / CAMS as f64;
     let eye = Vec3::new(4.0 * a.cos(), 4.0 * a.sin(), 1.5);
     let back = eye * (1.0 / eye.norm());
@@ -72,7 +70,6 @@ fn ring_c2w(c: usize) -> [[f64; 4]; 4] {
 }
 
 /// Writes the rig (N3DV layout) into `dir`.
-#[allow(clippy::cast_precision_loss, reason = "small sizes")]
 fn write_rig(dir: &Path) {
     let poses: Vec<LlffPose> = (0..CAMS)
         .map(|c| LlffPose::from_c2w_opengl(ring_c2w(c), [H as f64, W as f64, 30.0], [0.5, 10.0]))
@@ -155,7 +152,6 @@ fn read_csv(path: &Path) -> Vec<Row> {
 }
 
 fn mean(xs: &[f64]) -> f64 {
-    #[allow(clippy::cast_precision_loss, reason = "small counts")]
     let n = xs.len() as f64;
     xs.iter().sum::<f64>() / n
 }
@@ -264,7 +260,6 @@ fn eval_writes_a_csv_and_a_plot_that_agree_with_its_json() {
     for f in &m.frames {
         assert_eq!(f.camera, "cam00", "camera named");
         let frac = f.mask_fraction.expect("fraction");
-        #[allow(clippy::cast_precision_loss, reason = "small sizes")]
         let patch = (PATCH * PATCH) as f64 / (W * H) as f64;
         assert!(
             frac >= patch && frac < 0.3,

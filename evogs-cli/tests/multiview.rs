@@ -46,7 +46,6 @@ const SMALL: RigSpec = RigSpec {
 };
 
 /// The colour of pixel (x, y) of frame k of camera c: multiples of 1/255, distinct.
-#[allow(clippy::cast_precision_loss, reason = "small integers")]
 fn pixel(c: usize, k: usize, x: usize, y: usize) -> [f32; 3] {
     [
         ((x * 7 + c * 3) % 256) as f32 / 255.0,
@@ -56,7 +55,6 @@ fn pixel(c: usize, k: usize, x: usize, y: usize) -> [f32; 3] {
 }
 
 fn ring_c2w(c: usize, cams: usize) -> [[f64; 4]; 4] {
-    #[allow(clippy::cast_precision_loss, reason = "small counts")]
     let a = std::f64::consts::TAU * c as f64 / cams as f64;
     let eye = Vec3::new(4.0 * a.cos(), 4.0 * a.sin(), 1.5);
     let back = eye * (1.0 / eye.norm());
@@ -78,7 +76,6 @@ fn rig_dir(tag: &str) -> PathBuf {
     dir
 }
 
-#[allow(clippy::cast_precision_loss, reason = "small sizes")]
 fn write_rig(tag: &str, s: RigSpec) -> PathBuf {
     let dir = rig_dir(tag);
     let poses: Vec<LlffPose> = (0..s.cams)
@@ -173,7 +170,6 @@ fn shipped_rig_cameras_match_the_generator_s_matrices() {
     }
     // Times from times.txt: original frame 3k of 30 at 3k/29.
     for (k, v) in ds.test.iter().enumerate() {
-        #[allow(clippy::cast_precision_loss, reason = "small counts")]
         let want = (3 * k) as f64 / 29.0;
         assert!(close(v.time, want, 1e-15), "frame {k}: {}", v.time);
         assert!(

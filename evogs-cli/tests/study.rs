@@ -206,7 +206,6 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
             "{:?}: a point per test frame",
             c.motion
         );
-        #[allow(clippy::cast_precision_loss, reason = "small counts")]
         let mean = c.points.iter().map(|p| p.psnr).sum::<f64>() / c.points.len() as f64;
         let cell = row.cell(c.motion).expect("cell").psnr.mean;
         assert!(
@@ -216,7 +215,6 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
         );
         let dynamic: Vec<f64> = c.points.iter().filter_map(|p| p.dynamic_psnr).collect();
         assert_eq!(dynamic.len(), drow.masked_frames, "{:?}", c.motion);
-        #[allow(clippy::cast_precision_loss, reason = "small counts")]
         let dmean = dynamic.iter().sum::<f64>() / dynamic.len() as f64;
         let dcell = drow
             .cells

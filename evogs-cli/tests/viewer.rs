@@ -8,8 +8,6 @@
 
 #![allow(
     clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_precision_loss,
     reason = "pixel values, image sizes and pixel counts, all small"
 )]
 

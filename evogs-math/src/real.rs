@@ -63,7 +63,6 @@ pub trait Real:
     /// Converts a `usize` count or index to a scalar.
     #[inline]
     fn from_usize(n: usize) -> Self {
-        #[allow(clippy::cast_precision_loss, reason = "counts far below 2^52")]
         Self::from_f64(n as f64)
     }
     /// Square root.

@@ -44,7 +44,6 @@ impl SplitMix64 {
 
     /// Uniform in `[0, 1)` with 53 random bits.
     pub fn next_f64(&mut self) -> f64 {
-        #[allow(clippy::cast_precision_loss, reason = "53-bit integer is exact in f64")]
         let v = (self.next_u64() >> 11) as f64;
         v * (1.0 / 9_007_199_254_740_992.0)
     }

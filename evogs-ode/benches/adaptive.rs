@@ -64,7 +64,6 @@ fn work_precision(c: &mut Criterion) {
             {
                 #[allow(
                     clippy::cast_possible_truncation,
-                    clippy::cast_sign_loss,
                     reason = "step counts are small powers of two"
                 )]
                 let n = p.setting as usize;

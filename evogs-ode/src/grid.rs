@@ -173,7 +173,6 @@ fn count_from<T: Real>(x: T) -> usize {
     );
     #[allow(
         clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
         reason = "an integral value checked to lie in [0, 9e15]"
     )]
     {

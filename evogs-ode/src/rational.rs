@@ -86,13 +86,7 @@ impl Rational {
     /// integers).
     #[must_use]
     pub fn to_f64(self) -> f64 {
-        #[allow(
-            clippy::cast_precision_loss,
-            reason = "tableau numerators and denominators are far below 2^53"
-        )]
-        {
-            self.num as f64 / self.den as f64
-        }
+        self.num as f64 / self.den as f64
     }
 }
 

@@ -67,7 +67,6 @@ fn main() {
     let mut d_pos = vec![0f32; 3 * POINTS];
     let mut g = vec![0f32; field.params().len()];
     let mut record = FieldRecord::default();
-    #[allow(clippy::cast_precision_loss, reason = "a small count")]
     let inv_n = 1.0 / POINTS as f64;
     for it in 1..=ITERATIONS {
         let t = rng.uniform(0.0, 0.25);

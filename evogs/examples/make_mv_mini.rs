@@ -40,7 +40,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut c2w = Vec::new();
     for &c in &CAMERAS {
         let p = &poses[c];
-        #[allow(clippy::cast_precision_loss, reason = "small factor")]
         let f = FACTOR as f64;
         let hwf = [p.height() / f, p.width() / f, p.focal() / f];
         kept.push(LlffPose::from_c2w_opengl(p.c2w_opengl(), hwf, p.bounds));
@@ -55,7 +54,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     write_poses(&dst.join("poses_bounds.npy"), &kept)?;
-    #[allow(clippy::cast_precision_loss, reason = "small counts")]
     let times: String = (0..FRAMES)
         .map(|k| format!("{}\n", (k * FRAME_STEP) as f64 / (total_frames - 1) as f64))
         .collect();

@@ -19,9 +19,7 @@ use crate::data::{SplitName, View};
 use crate::eval::{FrameMetrics, SplitMetrics};
 use crate::field::Gemm;
 use crate::model::Model;
-use crate::train::step::render_options;
-use crate::train::trainer::psnr_of_mse;
-use crate::train::views::view_camera;
+use crate::model::render_options;
 use evogs_math::so3::{exp_quat, log_quat};
 use evogs_math::{Par, Quat, Vec3};
 use evogs_splat::metrics::mse;
@@ -173,7 +171,7 @@ impl Extrapolator {
         for v in views {
             let target = v.image_or_decode().map_err(|e| e.to_string())?;
             let target = target.as_ref();
-            let cam: PinholeCamera<f32> = view_camera(v)?;
+            let cam: PinholeCamera<f32> = v.camera()?;
             self.splats_at(v.time, &mut at);
             let mut img = render_tiled(&at.cast::<f32>(), &cam, &opts, &mut rast)
                 .raster
@@ -184,7 +182,7 @@ impl Extrapolator {
             frames.push(FrameMetrics {
                 file: v.file.display().to_string(),
                 time: v.time,
-                psnr: psnr_of_mse(f64::from(mse(&img, target))),
+                psnr: evogs_splat::metrics::psnr_from_mse(f64::from(mse(&img, target))),
                 ssim: f64::from(ws.ssim(&img, target, par)),
                 camera: String::new(),
                 dynamic_psnr: None,
@@ -193,7 +191,6 @@ impl Extrapolator {
                 mask_rule: None,
             });
         }
-        #[allow(clippy::cast_precision_loss, reason = "frame counts are small")]
         let n = frames.len().max(1) as f64;
         Ok(SplitMetrics {
             split,

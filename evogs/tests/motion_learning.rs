@@ -37,7 +37,6 @@ fn ground_truth() -> Vec<Blob> {
     // The moving patch: 4 × 4 Gaussians, red and yellow checkers.
     for i in 0..4 {
         for j in 0..4 {
-            #[allow(clippy::cast_precision_loss, reason = "small")]
             let (x, y) = (
                 START[0] + 0.06 * (i as f32 - 1.5),
                 START[1] + 0.06 * (j as f32 - 1.5),
@@ -53,7 +52,6 @@ fn ground_truth() -> Vec<Blob> {
     // The static backdrop: a 6 × 6 grid of blue and grey Gaussians below the patch.
     for i in 0..6 {
         for j in 0..6 {
-            #[allow(clippy::cast_precision_loss, reason = "small")]
             let (x, y) = (-0.6 + 0.24 * i as f32, -0.6 + 0.24 * j as f32);
             let c = if (i + j) % 2 == 0 {
                 [0.15, 0.3, 0.8]
@@ -87,7 +85,6 @@ fn scene_at(blobs: &[Blob], t: f32) -> Splats<f32> {
 }
 
 fn camera(k: usize, shift: f64) -> PinholeCamera<f32> {
-    #[allow(clippy::cast_precision_loss, reason = "small")]
     let az = (k as f64 + shift) * std::f64::consts::TAU / CAMERAS as f64;
     let el = 0.8_f64;
     let eye = Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin()) * 2.2;
@@ -160,7 +157,6 @@ fn train_with(
         );
         sum += -10.0 * f64::from(mse(&img, &v.image)).log10();
     }
-    #[allow(clippy::cast_precision_loss, reason = "small")]
     let psnr = sum / held_out.len() as f64;
     (t, psnr)
 }
@@ -176,7 +172,6 @@ fn views() -> (Vec<ViewData<f32>>, Vec<ViewData<f32>>) {
     let blobs = ground_truth();
     let mut train_views = Vec::new();
     for k in 0..TIMES {
-        #[allow(clippy::cast_precision_loss, reason = "small")]
         let t = k as f64 / (TIMES - 1) as f64;
         for c in 0..CAMERAS {
             train_views.push(view(&blobs, camera(c, 0.0), t));
@@ -185,7 +180,6 @@ fn views() -> (Vec<ViewData<f32>>, Vec<ViewData<f32>>) {
     // Held out: other directions, at times between the training times.
     let held_out: Vec<ViewData<f32>> = (0..TIMES - 1)
         .map(|k| {
-            #[allow(clippy::cast_precision_loss, reason = "small")]
             let t = (k as f64 + 0.5) / (TIMES - 1) as f64;
             view(&blobs, camera(k % CAMERAS, 0.5), t)
         })

@@ -130,11 +130,7 @@ fn a_generated_scene_loads_and_its_ground_truth_reproduces_the_gaussians() {
         let (_, centre) = body.law.world_from_body(v.time);
         let c = cam.world_to_camera(centre);
         let (u, w) = (cam.fx * c.x / c.z + cam.cx, cam.fy * c.y / c.z + cam.cy);
-        #[allow(
-            clippy::cast_possible_truncation,
-            clippy::cast_sign_loss,
-            reason = "pixel"
-        )]
+        #[allow(clippy::cast_possible_truncation, reason = "pixel")]
         let (u, w) = (u as u32, w as u32);
         if u < 32 && w < 32 {
             assert_eq!(

@@ -8,8 +8,6 @@ pub(crate) fn pct(sorted: &[f64], q: f64) -> f64 {
     }
     #[allow(
         clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        clippy::cast_precision_loss,
         reason = "an index into a short list"
     )]
     let i = ((sorted.len() - 1) as f64 * q).round() as usize;

@@ -11,7 +11,6 @@ use evogs::data::{DataFormat, Dataset};
 use evogs::eval::render_frame;
 use evogs::model::Model;
 use evogs::run::checkpoint;
-use evogs::train::views::view_camera;
 use evogs_math::{Par, Vec3};
 use evogs_splat::{PinholeCamera, Splats};
 use std::path::PathBuf;
@@ -147,10 +146,9 @@ impl Orbit {
         let cams: Vec<PinholeCamera<f64>> = ds
             .train
             .iter()
-            .map(view_camera)
+            .map(evogs::data::View::camera)
             .collect::<Result<_, _>>()
             .map_err(CommandError::new)?;
-        #[allow(clippy::cast_precision_loss, reason = "view counts are small")]
         let m = cams.len() as f64;
         let radius = cams
             .iter()
@@ -181,7 +179,6 @@ impl Orbit {
     /// # Errors
     /// A degenerate pose.
     pub fn camera(&self, i: usize) -> CommandResult<PinholeCamera<f32>> {
-        #[allow(clippy::cast_precision_loss, reason = "an angle")]
         let a = std::f64::consts::TAU * (i % self.n) as f64 / self.n as f64;
         let eye = self.center
             + (self.e1 * (self.ring * a.cos())
@@ -227,7 +224,6 @@ impl FrameCameras {
 #[must_use]
 pub fn orbit_center(model: &Model<f32>, ds: &Dataset) -> Vec3<f64> {
     let c = &model.canonical.means;
-    #[allow(clippy::cast_precision_loss, reason = "counts")]
     let k = c.len().max(1) as f64;
     let m = c.iter().fold(Vec3::zero(), |s, v| s + v.cast::<f64>()) * (1.0 / k);
     if ds.format == DataFormat::N3dv {
@@ -304,7 +300,7 @@ pub fn path_cameras(
             let t: Vec<PinholeCamera<f32>> = ds
                 .test
                 .iter()
-                .map(view_camera)
+                .map(evogs::data::View::camera)
                 .collect::<Result<_, _>>()
                 .map_err(CommandError::new)?;
             if t.is_empty() {
@@ -323,7 +319,6 @@ pub fn frame_time((a, b, n): (f64, f64, usize), i: usize) -> f64 {
     if n <= 1 {
         a
     } else {
-        #[allow(clippy::cast_precision_loss, reason = "frame indices")]
         let u = i as f64 / (n - 1) as f64;
         a + (b - a) * u
     }

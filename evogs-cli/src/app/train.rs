@@ -132,7 +132,6 @@ pub fn resolve_config(args: &TrainArgs) -> CommandResult<TrainConfig> {
 
 /// How the dataset's frames are held: decoded in memory, or read through the frame cache.
 fn frames_note(ds: &Dataset, cfg: &TrainConfig) -> String {
-    #[allow(clippy::cast_precision_loss, reason = "sizes for display")]
     let mib = |b: usize| b as f64 / (1024.0 * 1024.0);
     let all = ds.decoded_bytes();
     if all <= cfg.data.cache_bytes() {
@@ -371,7 +370,7 @@ fn train_loop(t: &mut Trainer, run: &RunFolder, rep: &mut dyn Reporter) -> Comma
                 t.model().len()
             ));
         }
-        let psnr = evogs::train::trainer::psnr_of_mse(r.losses.mse);
+        let psnr = evogs_splat::metrics::psnr_from_mse(r.losses.mse);
         rep.progress(
             t.iteration(),
             &format!(

@@ -37,7 +37,6 @@ pub const EXACT_ULPS_PER_STEP: f64 = 4.0;
 /// The rounding bound for `n` steps (see [`EXACT_ULPS_PER_STEP`]).
 #[must_use]
 pub fn exact_tol(n: usize) -> f64 {
-    #[allow(clippy::cast_precision_loss, reason = "step counts are small")]
     let n = n as f64;
     EXACT_ULPS_PER_STEP * n * f64::EPSILON
 }
@@ -184,7 +183,6 @@ pub fn check_order(
                     .iter()
                     .zip(&study.errors)
                     .all(|(&n, &e)| e <= exact_tol(n)),
-                #[allow(clippy::cast_precision_loss, reason = "orders are 1..4")]
                 Expect::Order(p) => study
                     .estimate
                     .as_ref()

@@ -92,7 +92,6 @@ pub fn ssim_skimage(a: &Image<f64>, b: &Image<f64>) -> f64 {
                 sum += num / den;
             }
         }
-        #[allow(clippy::cast_precision_loss, reason = "pixel counts are small")]
         let count = ((h - 2 * RADIUS) * (w - 2 * RADIUS)) as f64;
         total += sum / count;
     }

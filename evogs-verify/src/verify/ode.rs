@@ -301,7 +301,6 @@ fn order_rows(t: &mut Tally, dir: &str, errors: &[(String, usize, f64, Option<f6
         match (next, listed) {
             (None, None) => {}
             (Some((_, n2, e2, _)), Some(p)) => {
-                #[allow(clippy::cast_precision_loss, reason = "step counts are small")]
                 let ln_ratio = (*n2 as f64 / *n as f64).ln();
                 let mine = (e / e2).ln() / ln_ratio;
                 let allow = (ERROR_DELTA / e + ERROR_DELTA / e2) / ln_ratio;

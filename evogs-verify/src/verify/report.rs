@@ -350,7 +350,6 @@ impl Tally {
         row.count += mine.len();
         for (i, (&a, &r)) in mine.iter().zip(reference).enumerate() {
             if a != r {
-                #[allow(clippy::cast_precision_loss, reason = "small integers")]
                 let d = (a - r).unsigned_abs() as f64;
                 row.max_abs = row.max_abs.max(d);
                 row.max_rel += 1.0;

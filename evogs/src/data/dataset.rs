@@ -128,6 +128,15 @@ pub struct View {
 }
 
 impl View {
+    /// The view's camera, in any precision.
+    ///
+    /// # Errors
+    /// A non-finite or non-rigid camera matrix (named by the view's file).
+    pub fn camera<T: evogs_math::Real>(&self) -> Result<evogs_splat::PinholeCamera<T>, String> {
+        evogs_splat::PinholeCamera::from_dnerf(self.c2w, self.fov_x, self.width, self.height)
+            .map_err(|e| format!("{}: bad camera: {e}", self.file.display()))
+    }
+
     /// Bytes the decoded image takes (RGB f32).
     #[must_use]
     pub fn decoded_bytes(&self) -> usize {

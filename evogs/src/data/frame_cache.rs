@@ -359,7 +359,6 @@ mod tests {
         std::fs::create_dir_all(dir).expect("tmp");
         (0..n)
             .map(|i| {
-                #[allow(clippy::cast_precision_loss, reason = "small counts")]
                 let img = Image::filled(4, 3, [i as f32 / 255.0, 0.5, 1.0]);
                 let file = dir.join(format!("{i:04}.png"));
                 save_png(&img, &file).expect("save");

@@ -127,7 +127,6 @@ pub fn downscale(img: &Image<f32>, factor: usize) -> Image<f32> {
     }
     let (w, h) = (img.width() / factor, img.height() / factor);
     let mut out = Image::new(w, h);
-    #[allow(clippy::cast_precision_loss, reason = "small integer factor")]
     let inv = 1.0 / (factor * factor) as f32;
     for y in 0..h {
         for x in 0..w {
@@ -152,11 +151,7 @@ pub fn to_rgb8(img: &Image<f32>) -> Vec<u8> {
     img.data()
         .iter()
         .map(|v| {
-            #[allow(
-                clippy::cast_possible_truncation,
-                clippy::cast_sign_loss,
-                reason = "clamped to [0, 255]"
-            )]
+            #[allow(clippy::cast_possible_truncation, reason = "clamped to [0, 255]")]
             let b = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
             b
         })

@@ -302,9 +302,7 @@ fn frame_times(root: &Path, opts: &LoadOptions, count: usize) -> Result<Vec<f64>
         None => Some(root.join("times.txt")).filter(|p| p.is_file()),
     };
     let Some(file) = file else {
-        #[allow(clippy::cast_precision_loss, reason = "frame counts are small")]
         let denom = count.saturating_sub(1).max(1) as f64;
-        #[allow(clippy::cast_precision_loss, reason = "frame counts are small")]
         return Ok((0..count).map(|k| k as f64 / denom).collect());
     };
     let p = file.display().to_string();
@@ -426,7 +424,6 @@ fn camera_frame_size(
     let (w, h) = first.unwrap_or((0, 0));
     #[allow(
         clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
         reason = "checked whole positive sizes"
     )]
     let (full_w, full_h) = (
@@ -552,9 +549,7 @@ pub(super) fn load(root: &Path, opts: &LoadOptions) -> Result<Dataset, DataError
                 msg: format!("empty image after downscaling by {factor}"),
             });
         }
-        #[allow(clippy::cast_precision_loss, reason = "image sizes are small")]
         let focal = pose.focal() / d as f64;
-        #[allow(clippy::cast_precision_loss, reason = "image sizes are small")]
         let fov_x = 2.0 * (width as f64 / (2.0 * focal)).atan();
         let c2w = pose.c2w_opengl();
         ds.rig.push(RigCamera {

@@ -169,10 +169,6 @@ impl Scalar {
     /// An ASCII token of this type: integers must be integers within the type's range.
     fn parse_ascii(self, t: &str) -> Option<f64> {
         let int = |lo: i64, hi: i64| {
-            #[allow(
-                clippy::cast_precision_loss,
-                reason = "PLY integers have at most 32 bits: exact in f64"
-            )]
             t.parse::<i64>()
                 .ok()
                 .filter(|v| (lo..=hi).contains(v))
@@ -580,7 +576,6 @@ fn list_len(n: f64) -> Option<usize> {
     if n >= 0.0 && n <= f64::from(u32::MAX) {
         #[allow(
             clippy::cast_possible_truncation,
-            clippy::cast_sign_loss,
             reason = "an integer in [0, u32::MAX], read from an integer property"
         )]
         Some(n as usize)

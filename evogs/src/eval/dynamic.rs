@@ -16,8 +16,6 @@ use super::mask::{
 use super::render_frame;
 use crate::data::{RigCamera, View};
 use crate::model::Model;
-use crate::train::trainer::psnr_of_mse;
-use crate::train::views::view_camera;
 use evogs_math::Par;
 use evogs_splat::{Image, PinholeCamera, Splats};
 use serde::{Deserialize, Serialize};
@@ -84,7 +82,6 @@ pub fn masked_mse(img: &Image<f32>, target: &Image<f32>, mask: &MotionMask) -> O
             n += 3;
         }
     }
-    #[allow(clippy::cast_precision_loss, reason = "pixel counts fit f64")]
     (n > 0).then(|| sum / n as f64)
 }
 
@@ -107,14 +104,13 @@ pub fn masked_mean(map: &Image<f32>, mask: &MotionMask) -> Option<f64> {
             n += 3;
         }
     }
-    #[allow(clippy::cast_precision_loss, reason = "pixel counts fit f64")]
     (n > 0).then(|| sum / n as f64)
 }
 
 /// PSNR inside the mask (`None` for an empty mask).
 #[must_use]
 pub fn masked_psnr(img: &Image<f32>, target: &Image<f32>, mask: &MotionMask) -> Option<f64> {
-    masked_mse(img, target, mask).map(psnr_of_mse)
+    masked_mse(img, target, mask).map(evogs_splat::metrics::psnr_from_mse)
 }
 
 /// A camera pose, compared bit for bit: frames of one fixed camera share it exactly.
@@ -262,7 +258,7 @@ impl<'a> MotionMasks<'a> {
             }));
         }
         if let Some(r) = self.reference.as_mut() {
-            let cam: PinholeCamera<f32> = view_camera(view)?;
+            let cam: PinholeCamera<f32> = view.camera()?;
             let img = render_frame(
                 r.model,
                 &cam,
@@ -321,7 +317,6 @@ mod tests {
         let mut img = Image::new(W, H);
         for y in 0..H {
             for x in 0..W {
-                #[allow(clippy::cast_precision_loss, reason = "small")]
                 let g = 0.3 + 0.4 * (((x / 3 + y / 2) % 4) as f32) / 4.0;
                 img.set(x, y, [g, g, 0.5]);
             }
@@ -348,7 +343,6 @@ mod tests {
         let views: Vec<View> = (0..n)
             .map(|k| {
                 let (px, py) = corner(k, n);
-                #[allow(clippy::cast_precision_loss, reason = "small")]
                 let t = k as f64 / (n - 1) as f64;
                 view(format!("cam00/{k:04}.png").into(), t, frame(px, py), 0.0)
             })

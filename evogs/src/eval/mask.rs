@@ -138,9 +138,7 @@ impl MotionMask {
     /// The fraction of the frame's pixels that move (0 for an empty frame).
     #[must_use]
     pub fn fraction(&self) -> f64 {
-        #[allow(clippy::cast_precision_loss, reason = "pixel counts fit f64")]
-        let f = self.count() as f64 / self.on.len().max(1) as f64;
-        f
+        self.count() as f64 / self.on.len().max(1) as f64
     }
 }
 
@@ -219,7 +217,6 @@ pub fn temporal_median(
         }
         #[allow(
             clippy::cast_possible_truncation,
-            clippy::cast_sign_loss,
             reason = "clamped to [0, 65535] first"
         )]
         levels.extend(

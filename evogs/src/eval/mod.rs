@@ -14,9 +14,7 @@ use dynamic::{FrameMask, MaskRule, camera_label, masked_mean, masked_psnr};
 
 use crate::data::{RigCamera, SplitName, View};
 use crate::model::Model;
-use crate::train::step::render_options;
-use crate::train::trainer::psnr_of_mse;
-use crate::train::views::view_camera;
+use crate::model::render_options;
 use evogs_math::Par;
 use evogs_splat::metrics::mse;
 use evogs_splat::ssim::SsimWorkspace;
@@ -97,9 +95,7 @@ impl DynamicMetrics {
 /// The mean of `xs` (0 when empty).
 fn mean(xs: impl Iterator<Item = f64>) -> f64 {
     let (s, n) = xs.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
-    #[allow(clippy::cast_precision_loss, reason = "frame counts are small")]
-    let m = s / n.max(1) as f64;
-    m
+    s / n.max(1) as f64
 }
 
 /// Metrics of a split: `RUN/metrics-<split>.json`.
@@ -232,7 +228,7 @@ pub fn evaluate_views_masked(
     for (i, v) in selected.iter().enumerate() {
         let target = v.image_or_decode().map_err(|e| e.to_string())?;
         let target = target.as_ref();
-        let cam: PinholeCamera<f32> = view_camera(v)?;
+        let cam: PinholeCamera<f32> = v.camera()?;
         let img = render_frame(model, &cam, v.time, background, par, &mut scratch);
         let m = f64::from(mse(&img, target));
         if !map.same_size(&img) {
@@ -244,7 +240,7 @@ pub fn evaluate_views_masked(
         frames.push(FrameMetrics {
             file: v.file.display().to_string(),
             time: v.time,
-            psnr: psnr_of_mse(m),
+            psnr: evogs_splat::metrics::psnr_from_mse(m),
             ssim: s,
             camera: camera_label(v, rig),
             dynamic_psnr: fm.as_ref().and_then(|f| masked_psnr(&img, target, &f.mask)),

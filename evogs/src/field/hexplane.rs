@@ -123,11 +123,7 @@ fn axis<T: Real>(c: T, n: usize) -> (usize, T, T) {
     } else {
         (u, scale)
     };
-    #[allow(
-        clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        reason = "u is in [0, n − 1]"
-    )]
+    #[allow(clippy::cast_possible_truncation, reason = "u is in [0, n − 1]")]
     let cell = (u.floor().to_f64() as usize).min(n - 2);
     (cell, u - T::from_usize(cell), d)
 }

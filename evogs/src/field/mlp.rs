@@ -147,7 +147,6 @@ impl Mlp {
     ) {
         let (f, w) = (self.input, self.width);
         let mut xavier = |dst: &mut [T], fan_in: usize, fan_out: usize| {
-            #[allow(clippy::cast_precision_loss, reason = "layer sizes are small")]
             let a = (6.0 / (fan_in + fan_out) as f64).sqrt();
             for v in dst {
                 *v = T::from_f64(rng.uniform(-a, a));

@@ -50,10 +50,6 @@ fn nanos_since(start: Instant) -> u64 {
     u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX)
 }
 
-#[allow(
-    clippy::cast_precision_loss,
-    reason = "nanosecond totals far below 2^52"
-)]
 fn seconds(nanos: u64) -> f64 {
     nanos as f64 * 1e-9
 }

@@ -45,7 +45,6 @@ fn smoothness<T: Real>(
     if rows < 3 {
         return 0.0;
     }
-    #[allow(clippy::cast_precision_loss, reason = "plane sizes are far below 2^52")]
     let count = ((rows - 2) * row_len) as f64;
     let g = T::from_f64(2.0 * weight / count);
     let mut acc = 0.0;
@@ -68,7 +67,6 @@ fn smoothness<T: Real>(
 }
 
 fn l1_to_one<T: Real>(plane: &[T], weight: f64, grad: &mut [T]) -> f64 {
-    #[allow(clippy::cast_precision_loss, reason = "plane sizes are far below 2^52")]
     let count = plane.len() as f64;
     let g = T::from_f64(weight / count);
     let mut acc = 0.0;

@@ -91,9 +91,7 @@ pub fn anchor_times(t_min: f64, t_max: f64, k: usize) -> Vec<f64> {
     if k <= 1 || t_max <= t_min {
         return vec![t_min];
     }
-    #[allow(clippy::cast_precision_loss, reason = "small counts")]
     let step = (t_max - t_min) / (k - 1) as f64;
-    #[allow(clippy::cast_precision_loss, reason = "small counts")]
     (0..k)
         .map(|i| {
             if i + 1 == k {

@@ -448,7 +448,6 @@ impl<T: Gemm> Model<T> {
         let grid = self.grid(k, self.anchor_times[k + 1]);
         let (trajectory, recording) = self.integrate_recorded(&grid, &y0, stepper);
         let y = trajectory.final_state();
-        #[allow(clippy::cast_precision_loss, reason = "counts are small")]
         let w = T::from_f64(weight / n as f64);
         let mut d_final = vec![T::ZERO; n * TANGENT];
         let mut loss = 0.0_f64;
@@ -475,9 +474,7 @@ impl<T: Gemm> Model<T> {
             gq[i] = gq[i] + normalize_quat_vjp(target.quats[i], amb);
         }
         self.adjoint_to_anchor(k, &trajectory, recording, &d_final, stepper, grad);
-        #[allow(clippy::cast_precision_loss, reason = "counts are small")]
-        let mean = loss * weight / n as f64;
-        mean
+        loss * weight / n as f64
     }
 
     /// Sets anchor `k ≥ 1` to the state integrated from anchor `k − 1` to `τ_k` (the

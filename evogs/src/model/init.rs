@@ -28,22 +28,12 @@ pub fn mean_sq_knn_distance(points: &[[f32; 3]], k: usize) -> Vec<f32> {
         }
     }
     // About two points per cell.
-    #[allow(clippy::cast_precision_loss, reason = "point counts are small")]
     let vol: f32 = (0..3).map(|a| (hi[a] - lo[a]).max(1e-6)).product();
-    #[allow(clippy::cast_precision_loss, reason = "point counts are small")]
     let cell = (2.0 * vol / n as f32).cbrt().max(1e-6);
-    #[allow(
-        clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        reason = "grid sizes are small"
-    )]
+    #[allow(clippy::cast_possible_truncation, reason = "grid sizes are small")]
     let dims: [usize; 3] =
         core::array::from_fn(|a| (((hi[a] - lo[a]) / cell) as usize + 1).min(1024));
-    #[allow(
-        clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        reason = "clamped to the grid"
-    )]
+    #[allow(clippy::cast_possible_truncation, reason = "clamped to the grid")]
     let cell_of = |p: &[f32; 3]| -> [usize; 3] {
         core::array::from_fn(|a| (((p[a] - lo[a]) / cell) as usize).min(dims[a] - 1))
     };
@@ -97,7 +87,6 @@ pub fn mean_sq_knn_distance(points: &[[f32; 3]], k: usize) -> Vec<f32> {
                 }
             }
             // Every point outside the visited cube is farther than ring·cell.
-            #[allow(clippy::cast_precision_loss, reason = "small ring counts")]
             let reach = ring as f32 * cell;
             let done = best.len() == k && best[k - 1] <= reach * reach;
             if done || ring > dims.iter().copied().max().unwrap_or(1) {
@@ -105,7 +94,6 @@ pub fn mean_sq_knn_distance(points: &[[f32; 3]], k: usize) -> Vec<f32> {
             }
             ring += 1;
         }
-        #[allow(clippy::cast_precision_loss, reason = "k is small")]
         out.push(best.iter().sum::<f32>() / best.len().max(1) as f32);
     }
     out

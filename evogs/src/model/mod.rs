@@ -16,12 +16,14 @@ pub mod build;
 pub mod dynamics;
 pub mod init;
 pub mod order;
+pub mod render;
 pub mod retain;
 
 pub use anchors::{AnchorState, Waypoints, anchor_for_time};
 pub use build::{ModelFrame, build_model};
 use dynamics::FrameRecords;
 pub use dynamics::FrameTape;
+pub use render::render_options;
 
 use crate::field::{Gemm, NeuralField};
 use evogs_math::{Quat, Vec3};

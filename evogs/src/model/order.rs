@@ -21,11 +21,7 @@ pub fn morton_code<T: Real>(p: Vec3<T>, lo: [f64; 3], hi: [f64; 3]) -> u64 {
     let cells = f64::from((1u32 << BITS) - 1);
     let q = |v: T, a: usize| {
         let u = (v.to_f64() - lo[a]) / (hi[a] - lo[a]).max(f64::MIN_POSITIVE);
-        #[allow(
-            clippy::cast_possible_truncation,
-            clippy::cast_sign_loss,
-            reason = "clamped to [0, 1023]"
-        )]
+        #[allow(clippy::cast_possible_truncation, reason = "clamped to [0, 1023]")]
         let cell = if u.is_nan() {
             0
         } else {

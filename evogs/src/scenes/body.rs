@@ -130,11 +130,7 @@ impl Shape {
                     let phi = golden * f64::from(k);
                     let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
                     let lon = phi.rem_euclid(std::f64::consts::TAU);
-                    #[allow(
-                        clippy::cast_possible_truncation,
-                        clippy::cast_sign_loss,
-                        reason = "a sector index in 0..4"
-                    )]
+                    #[allow(clippy::cast_possible_truncation, reason = "a sector index in 0..4")]
                     let sector = (lon / std::f64::consts::FRAC_PI_2) as usize % 4;
                     let band = usize::from(z > 0.3);
                     push(
@@ -170,11 +166,7 @@ impl Shape {
 
 /// How many cells of size `step` cover `length` (at least 1).
 fn cells(length: f64, step: f64) -> u32 {
-    #[allow(
-        clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        reason = "small positive counts"
-    )]
+    #[allow(clippy::cast_possible_truncation, reason = "small positive counts")]
     let n = (length / step).round().max(1.0) as u32;
     n
 }

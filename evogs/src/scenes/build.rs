@@ -142,13 +142,8 @@ impl BuiltScene {
     /// The ground truth of the scene's motion (`motion.json`).
     #[must_use]
     pub fn ground_truth(&self) -> GroundTruth {
-        #[allow(
-            clippy::cast_possible_truncation,
-            clippy::cast_sign_loss,
-            reason = "a small positive count"
-        )]
+        #[allow(clippy::cast_possible_truncation, reason = "a small positive count")]
         let n = ((SAMPLE_RANGE[1] - SAMPLE_RANGE[0]) / SAMPLE_STEP).round() as usize + 1;
-        #[allow(clippy::cast_precision_loss, reason = "small counts")]
         let sample_times: Vec<f64> = (0..n)
             .map(|i| SAMPLE_RANGE[0] + i as f64 * SAMPLE_STEP)
             .collect();

@@ -58,7 +58,6 @@ pub fn random_c2w(rng: &mut SplitMix64) -> [[f64; 4]; 4] {
 /// Camera `k` of a ring of `n` at [`RING_ELEVATION`].
 #[must_use]
 pub fn ring_c2w(k: usize, n: usize) -> [[f64; 4]; 4] {
-    #[allow(clippy::cast_precision_loss, reason = "small counts")]
     let az = std::f64::consts::TAU * (k as f64 + 0.25) / n as f64;
     orbit_c2w(az, RING_ELEVATION)
 }

@@ -81,7 +81,6 @@ impl Grid {
                     }
                 }
             }
-            #[allow(clippy::cast_precision_loss, reason = "small ring counts")]
             if let Some((d, tag)) = best
                 && d <= r as f64 * CELL
             {
@@ -128,7 +127,6 @@ pub fn trajectory_error(
     if n == 0 {
         return None;
     }
-    #[allow(clippy::cast_precision_loss, reason = "Gaussian counts fit f64")]
     let nf = n as f64;
     Some(TrajectoryError {
         split,

@@ -6,7 +6,7 @@ use super::build::BuiltScene;
 use super::rig::{FOV_X, random_c2w, ring_c2w};
 use crate::atomic::{AtomicFile, write_atomic_named};
 use crate::data::ply::PlyTable;
-use crate::train::step::render_options;
+use crate::model::render_options;
 use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
 use evogs_splat::{PinholeCamera, Render, Splats, TiledRasterizer, render_tiled};
@@ -98,7 +98,6 @@ struct Transforms<'a> {
     frames: &'a [Frame],
 }
 
-#[allow(clippy::cast_precision_loss, reason = "small counts")]
 fn grid(n: usize) -> impl Iterator<Item = f64> {
     (0..n).map(move |i| {
         if n == 1 {
@@ -109,13 +108,11 @@ fn grid(n: usize) -> impl Iterator<Item = f64> {
     })
 }
 
-#[allow(clippy::cast_precision_loss, reason = "small counts")]
 fn between(n: usize) -> impl Iterator<Item = f64> {
     // Midway between `n + 1` grid times, offset so they avoid the training grid.
     (0..n).map(move |i| (i as f64 + 0.5) / n as f64)
 }
 
-#[allow(clippy::cast_precision_loss, reason = "small counts")]
 fn future(n: usize) -> impl Iterator<Item = f64> {
     (0..n).map(move |i| 1.0 + 0.3 * (i as f64 + 1.0) / n as f64)
 }
@@ -185,11 +182,7 @@ pub struct Written {
 
 fn rgba8(r: &Render<f32>) -> Vec<u8> {
     let q = |v: f32| -> u8 {
-        #[allow(
-            clippy::cast_possible_truncation,
-            clippy::cast_sign_loss,
-            reason = "clamped to [0, 255]"
-        )]
+        #[allow(clippy::cast_possible_truncation, reason = "clamped to [0, 255]")]
         let b = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
         b
     };

@@ -88,11 +88,7 @@ impl AdamState {
         items: impl Iterator<Item = (&'a mut f32, f32)>,
     ) {
         self.step += 1;
-        #[allow(
-            clippy::cast_possible_truncation,
-            clippy::cast_possible_wrap,
-            reason = "step counts are small"
-        )]
+        #[allow(clippy::cast_possible_truncation, reason = "step counts are small")]
         let t = self.step.min(i32::MAX as u64) as i32;
         let bc1 = 1.0 - adam.beta1.powi(t);
         let bc2 = 1.0 - adam.beta2.powi(t);
@@ -171,7 +167,6 @@ impl ExpSchedule {
         if self.init <= 0.0 || self.final_ <= 0.0 {
             return 0.0;
         }
-        #[allow(clippy::cast_precision_loss, reason = "step counts are small")]
         let u = (step as f64 / self.max_steps.max(1) as f64).clamp(0.0, 1.0);
         ((1.0 - u) * self.init.ln() + u * self.final_.ln()).exp()
     }

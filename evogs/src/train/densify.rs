@@ -142,7 +142,6 @@ pub fn densify_and_prune(
     let min_o = cfg.min_opacity as f32;
     for i in 0..total {
         let transparent = sigmoid(model.canonical.opacity_logits[i]) < min_o;
-        #[allow(clippy::cast_precision_loss, reason = "pixel radii are small")]
         let huge = prune_big
             && cfg.max_screen_size > 0.0
             && i < n

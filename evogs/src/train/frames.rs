@@ -114,7 +114,6 @@ impl TrainViews {
             .iter()
             .map(|c| c.center().cast::<f64>().to_array())
             .collect();
-        #[allow(clippy::cast_precision_loss, reason = "view counts are small")]
         let n = centres.len() as f64;
         let mean: [f64; 3] =
             core::array::from_fn(|a| centres.iter().map(|c| c[a]).sum::<f64>() / n);

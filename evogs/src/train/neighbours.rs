@@ -28,7 +28,6 @@ pub(crate) fn neighbour_pairs(positions: &[[f64; 3]], k: usize) -> (Vec<Pair>, f
         best.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         nbrs.extend(best.into_iter().map(|(d, j)| (j, d)));
     }
-    #[allow(clippy::cast_precision_loss, reason = "counts are small")]
     let mean_d = nbrs.iter().map(|&(_, d)| d).sum::<f64>() / nbrs.len() as f64;
     let sigma = (0.5 * mean_d).max(1e-12);
     let mut sum_w = 0.0;

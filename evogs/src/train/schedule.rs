@@ -92,7 +92,6 @@ impl Schedule {
             return t1;
         }
         let w0 = s.warmup_time_window;
-        #[allow(clippy::cast_precision_loss, reason = "iteration counts are small")]
         let frac = if it <= s.warmup_iters {
             w0
         } else if s.curriculum_iters == 0 {

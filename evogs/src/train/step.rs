@@ -17,7 +17,7 @@ use crate::field::{Batch, BatchVjp, FieldRecord, Gemm};
 use crate::model::{Model, ModelGrad, Motion, Waypoints};
 use crate::train::coherence::{COHERENCE_K, coherence_loss};
 use crate::train::render_pass::{RenderTimes, render_backward, render_forward};
-use evogs_math::{Par, Real};
+use evogs_math::Real;
 use evogs_ode::Stepper;
 use evogs_splat::loss::photometric_loss_and_grad;
 use evogs_splat::ssim::SsimWorkspace;
@@ -151,21 +151,6 @@ pub struct ScreenStats<T> {
     pub size: (usize, usize),
 }
 
-/// The render options of training for a camera-independent background and SH degree.
-#[must_use]
-pub fn render_options<T: Real>(
-    background: [f32; 3],
-    sh_degree: usize,
-    par: Par,
-) -> RenderOptions<T> {
-    RenderOptions {
-        sh_degree,
-        background: background.map(|v| T::from_f64(f64::from(v))),
-        par,
-        ..RenderOptions::default()
-    }
-}
-
 /// Loss and gradient of one step on one view; **adds** the gradient into `grad` (zero it
 /// first) and returns the loss terms and the densification statistics
 /// ([`batch_loss_and_grad`] of one view).
@@ -200,7 +185,6 @@ pub fn batch_loss_and_grad<T: Gemm>(
     grad: &mut ModelGrad<T>,
 ) -> (StepLosses, ScreenStats<T>) {
     assert!(!views.is_empty(), "a step needs at least one view");
-    #[allow(clippy::cast_precision_loss, reason = "batch sizes are small")]
     let weight = 1.0 / views.len() as f64;
     let mut losses = StepLosses::default();
     let mut batch_stats: Option<ScreenStats<T>> = None;
@@ -426,7 +410,6 @@ pub fn accumulate_screen_stats<T: Real>(
     count: &mut [u32],
     max_radius: &mut [u32],
 ) {
-    #[allow(clippy::cast_precision_loss, reason = "image sizes are small")]
     let (sx, sy) = (0.5 * stats.size.0 as f64, 0.5 * stats.size.1 as f64);
     for (i, (g, &r)) in stats.grad2d.iter().zip(&stats.radius).enumerate() {
         if r > 0 {

@@ -13,13 +13,12 @@ use super::optim::StateGroups;
 use super::schedule::Schedule;
 use super::state::TrainerState;
 use super::step::{
-    StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats,
-    batch_loss_and_grad, render_options,
+    StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats, batch_loss_and_grad,
 };
 use crate::config::TrainConfig;
 use crate::field::regularize::PlaneRegWeights;
 use crate::model::init::{gaussians_from_points, random_points};
-use crate::model::{Model, ModelFrame, ModelGrad, Motion, build_model};
+use crate::model::{Model, ModelFrame, ModelGrad, Motion, build_model, render_options};
 use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
 use std::time::Instant;
@@ -430,7 +429,7 @@ impl Trainer {
                 seconds: st.train_seconds,
                 loss: losses.total,
                 l1: losses.l1,
-                psnr: psnr_of_mse(losses.mse),
+                psnr: evogs_splat::metrics::psnr_from_mse(losses.mse),
                 ssim: losses.ssim,
                 regularizers: losses.planes + losses.coherence + losses.anchor,
                 gaussians: self.model.len(),
@@ -439,15 +438,5 @@ impl Trainer {
         }
         report.losses = losses;
         Ok(report)
-    }
-}
-
-/// `10·log10(1/mse)` (∞ for a perfect match).
-#[must_use]
-pub fn psnr_of_mse(mse: f64) -> f64 {
-    if mse > 0.0 {
-        -10.0 * mse.log10()
-    } else {
-        f64::INFINITY
     }
 }

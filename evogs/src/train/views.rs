@@ -6,17 +6,7 @@ use super::step::ViewData;
 use crate::config::{DataConfig, Protocol};
 use crate::data::View;
 use crate::data::frame_cache::{FrameCache, FrameSource};
-use evogs_splat::{CameraError, PinholeCamera};
 use std::sync::Arc;
-
-/// The camera of a dataset view, in any precision.
-///
-/// # Errors
-/// A non-finite or non-rigid camera matrix (named by the view's file).
-pub fn view_camera<T: evogs_math::Real>(v: &View) -> Result<PinholeCamera<T>, String> {
-    PinholeCamera::from_dnerf(v.c2w, v.fov_x, v.width, v.height)
-        .map_err(|e: CameraError| format!("{}: bad camera: {e}", v.file.display()))
-}
 
 /// The indices of the training views the protocol supervises.
 #[must_use]
@@ -56,7 +46,7 @@ pub fn training_views(views: &[View], indices: &[usize]) -> Result<Vec<ViewData<
             let v = &views[i];
             let image = v.image_or_decode().map_err(|e| e.to_string())?;
             Ok(ViewData {
-                camera: view_camera(v)?,
+                camera: v.camera()?,
                 time: v.time,
                 image: Arc::new(image.into_owned()),
             })
@@ -81,7 +71,7 @@ pub fn training_frames(
     let mut sources = Vec::with_capacity(indices.len());
     for &i in indices {
         let v = &mut views[i];
-        cameras.push(view_camera(v)?);
+        cameras.push(v.camera()?);
         times.push(v.time);
         sources.push(match v.image.take() {
             Some(img) => FrameSource::Memory(Arc::new(img)),

@@ -202,7 +202,6 @@ fn run_pool(
 
 /// The GEMM figures of a pool's samples.
 fn gemm_figures(p: &PoolRun) -> GemmFigures {
-    #[allow(clippy::cast_precision_loss, reason = "counts far below 2^52")]
     let (flops, k) = (p.gemm_flops as f64, p.samples.len() as f64);
     let thread_seconds = p
         .samples

@@ -131,7 +131,6 @@ impl Summary {
         } else {
             0.5 * (v[k / 2 - 1] + v[k / 2])
         };
-        #[allow(clippy::cast_precision_loss, reason = "iteration counts are small")]
         let mean = v.iter().sum::<f64>() / k as f64;
         Self {
             median,
@@ -254,12 +253,10 @@ pub struct BenchReport {
 
 /// `bytes` in MiB, or `n/a`.
 fn mib(bytes: Option<u64>) -> String {
-    #[allow(clippy::cast_precision_loss, reason = "display")]
     bytes.map_or_else(|| "n/a".into(), |b| format!("{:.0}", b as f64 / 1048576.0))
 }
 
 /// `flops` in GFLOP.
-#[allow(clippy::cast_precision_loss, reason = "display")]
 fn gflop(flops: u64) -> f64 {
     flops as f64 * 1e-9
 }

@@ -39,7 +39,6 @@ pub(super) fn difference_step(ds: &Dataset, tau: f64) -> Option<f64> {
     if times.len() < 3 {
         return None;
     }
-    #[allow(clippy::cast_precision_loss, reason = "small counts")]
     let spacing = (times[times.len() - 1] - times[0]) / (times.len() - 1) as f64;
     Some(STEPS * spacing)
 }

@@ -138,7 +138,6 @@ impl StudyProgress {
     pub(super) fn eta(&self) -> Option<f64> {
         let (left, done) = self.iterations_left_and_done();
         let secs = self.started.elapsed().as_secs_f64();
-        #[allow(clippy::cast_precision_loss, reason = "iteration counts fit f64")]
         (done > 0).then(|| left as f64 * secs / done as f64)
     }
 
@@ -240,7 +239,6 @@ impl StudyProgress {
 pub(super) fn fmt_duration(secs: f64) -> String {
     #[allow(
         clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
         reason = "durations are small and non-negative"
     )]
     let s = secs.max(0.0).round() as u64;

@@ -139,7 +139,6 @@ impl Stat {
         if xs.is_empty() {
             return None;
         }
-        #[allow(clippy::cast_precision_loss, reason = "repeat counts are small")]
         let n = xs.len() as f64;
         let mean = xs.iter().sum::<f64>() / n;
         let sd = if xs.len() > 1 {
@@ -380,7 +379,6 @@ impl StudySummary {
             for &m in &motions {
                 let of_pm: Vec<&&RunRecord> = of_p.iter().filter(|r| r.motion == m).collect();
                 let secs: Vec<f64> = of_pm.iter().map(|r| r.train_seconds).collect();
-                #[allow(clippy::cast_precision_loss, reason = "Gaussian counts fit f64")]
                 let gs: Vec<f64> = of_pm.iter().map(|r| r.gaussians as f64).collect();
                 if let (Some(t), Some(g)) = (Stat::of(&secs), Stat::of(&gs)) {
                     costs.push(CostRow {

@@ -250,7 +250,6 @@ fn timeline(
                 }
             }
             acc.sort_by(|a, b| a.0.total_cmp(&b.0));
-            #[allow(clippy::cast_precision_loss, reason = "frame counts are small")]
             let points = acc
                 .iter()
                 .map(|a| CurvePoint {

@@ -26,11 +26,7 @@ fn header(out: &mut Vec<u8>, magic: [u8; 4], n: usize, t: f64) {
 
 /// A unit interval value as a byte (rounded, clamped).
 fn unit_byte(v: f32) -> u8 {
-    #[allow(
-        clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        reason = "clamped to [0, 255] first"
-    )]
+    #[allow(clippy::cast_possible_truncation, reason = "clamped to [0, 255] first")]
     let b = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
     b
 }

@@ -9,10 +9,8 @@
 
 use evogs::field::regularize::PlaneRegWeights;
 use evogs::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
-use evogs::model::{Model, ModelGrad, Motion, Waypoints};
-use evogs::train::step::{
-    StepLosses, StepSettings, StepWorkspace, ViewData, batch_loss_and_grad, render_options,
-};
+use evogs::model::{Model, ModelGrad, Motion, Waypoints, render_options};
+use evogs::train::step::{StepLosses, StepSettings, StepWorkspace, ViewData, batch_loss_and_grad};
 use evogs_math::activation::logit;
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Par, Quat, Vec3};
