@@ -178,12 +178,17 @@ fn antialiased_tiled_matches_the_reference_rasterizer() {
             };
             let e_raster = rel_err(&m(&gf), &m(&gs));
             println!("{file} antialiased: params {e_params:.2e}, raster inputs {e_raster:.2e}");
-            // The rasterizer sums over pixels in another order (per tile, then per entry);
-            // its own outputs agree to ~1e-13. The parameter gradients pass through the
-            // projection Jacobians, which amplify that rounding for the needle (a log-scale
-            // gradient 1.2e-11 off): bound them at 1e-10.
+            // The rasterizer sums over pixels in another order (per tile, then per entry),
+            // so the two agree to rounding, not bitwise. The needle's raster-input gradients
+            // differ by 5.4e-13 when the case's inputs are parsed with serde_json's fast
+            // float parser and by 1.1e-12 when they are parsed correctly rounded
+            // (`float_roundtrip`, on since checkpoints need exact floats): an ulp-level change
+            // of the inputs moves the rounding of the two summation orders. Bound them at
+            // 1e-11. The parameter gradients pass through the projection Jacobians, which
+            // amplify that rounding for the needle (2.2e-12 and 6.6e-12 with the two parsers):
+            // bound them at 1e-10.
             assert!(
-                e_params < 1e-10 && e_raster < 1e-12,
+                e_params < 1e-10 && e_raster < 1e-11,
                 "{file}: antialiased gradients differ ({e_params:.2e}, {e_raster:.2e})"
             );
         }

@@ -368,10 +368,6 @@ impl<T: Real> Stepper<T> {
 
     /// [`eval_stages`](Self::eval_stages) with the field values of the stages taken from
     /// `values` (evaluated, evaluated and recorded, or replayed from a record).
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "the stage loop's inputs and its value source"
-    )]
     pub(crate) fn eval_stages_from<F: VectorField<T> + ?Sized>(
         &mut self,
         field: &mut F,

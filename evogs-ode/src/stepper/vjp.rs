@@ -80,17 +80,7 @@ impl<T: Real> Stepper<T> {
         lambda: &mut [T],
         d_params: &mut [T],
     ) {
-        self.check(field, y_n);
-        assert_eq!(
-            lambda.len(),
-            self.n,
-            "cotangent length differs from the layout"
-        );
-        assert_eq!(
-            d_params.len(),
-            field.n_params(),
-            "parameter-gradient length differs from the field"
-        );
+        self.check_vjp(field, y_n, lambda, d_params);
         let upto = self.needed_stages();
         self.vjp_begin(field, t, h, y_n, upto);
         let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
@@ -99,25 +89,14 @@ impl<T: Real> Stepper<T> {
         self.vjp_stages(field, t, h, y_n, upto, lambda, d_params);
     }
 
-    /// [`step_vjp`](Self::step_vjp) of a step taken by
-    /// [`step_recorded`](Self::step_recorded): with `Some((outputs, records))` (what it
-    /// kept) the stage values are copied from `outputs` and each stage's VJP reads its
-    /// record; with `None` the stages are evaluated again into `scratch` (one record per
-    /// stage) and their VJPs read those. Bitwise the same as `step_vjp`.
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "step_vjp's arguments and the recorded stages"
-    )]
-    pub(crate) fn step_vjp_recorded<F: VectorField<T> + ?Sized>(
-        &mut self,
-        field: &mut F,
-        t: T,
-        h: T,
+    /// The argument checks of a step's VJP: the state, the cotangent and the parameter
+    /// gradient fit the layout and the field.
+    fn check_vjp<F: VectorField<T> + ?Sized>(
+        &self,
+        field: &F,
         y_n: &[T],
-        kept: Option<(&[T], &[F::Record])>,
-        scratch: &mut [F::Record],
-        lambda: &mut [T],
-        d_params: &mut [T],
+        lambda: &[T],
+        d_params: &[T],
     ) {
         self.check(field, y_n);
         assert_eq!(
@@ -130,6 +109,25 @@ impl<T: Real> Stepper<T> {
             field.n_params(),
             "parameter-gradient length differs from the field"
         );
+    }
+
+    /// [`step_vjp`](Self::step_vjp) of a step taken by
+    /// [`step_recorded`](Self::step_recorded): with `Some((outputs, records))` (what it
+    /// kept) the stage values are copied from `outputs` and each stage's VJP reads its
+    /// record; with `None` the stages are evaluated again into `scratch` (one record per
+    /// stage) and their VJPs read those. Bitwise the same as `step_vjp`.
+    pub(crate) fn step_vjp_recorded<F: VectorField<T> + ?Sized>(
+        &mut self,
+        field: &mut F,
+        t: T,
+        h: T,
+        y_n: &[T],
+        kept: Option<(&[T], &[F::Record])>,
+        scratch: &mut [F::Record],
+        lambda: &mut [T],
+        d_params: &mut [T],
+    ) {
+        self.check_vjp(field, y_n, lambda, d_params);
         let upto = self.needed_stages();
         self.ensure_adjoint_buffers();
         let records: &[F::Record] = match kept {
@@ -214,10 +212,6 @@ impl<T: Real> Stepper<T> {
 
     /// [`vjp_stages`](Self::vjp_stages), each stage's field VJP reading `records[i]` when
     /// given (written by the field at that stage).
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "vjp_stages' arguments and the records"
-    )]
     fn vjp_stages_with<F: VectorField<T> + ?Sized>(
         &mut self,
         field: &mut F,

@@ -206,10 +206,6 @@ pub type MaskSource<'f> = dyn FnMut(&View, &Image<f32>) -> Result<Option<FrameMa
 ///
 /// # Errors
 /// An image that cannot be decoded, a bad camera, or a mask that cannot be made.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the evaluation's inputs, each distinct"
-)]
 pub fn evaluate_views_masked(
     model: &mut Model<f32>,
     selected: &[&View],

@@ -79,10 +79,6 @@ fn masks_of(
 /// # Errors
 /// A run that cannot be loaded or evaluated, a mask that cannot be made, a plot that cannot
 /// be written.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the study's pieces, each distinct"
-)]
 pub(super) fn dynamic_pass(
     runs: &[PlannedRun],
     ds: &Dataset,
