@@ -4,9 +4,31 @@
 use super::densify::DensifyStats;
 use super::optim::Optimizer;
 use super::sampler::ViewSampler;
-use super::trainer::LogRow;
 use crate::model::Model;
 use evogs_math::rng::SplitMix64;
+
+/// One line of the training log.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LogRow {
+    /// Iteration.
+    pub iteration: u64,
+    /// Training seconds so far.
+    pub seconds: f64,
+    /// Total loss.
+    pub loss: f64,
+    /// L1 term.
+    pub l1: f64,
+    /// PSNR of the training view (dB).
+    pub psnr: f64,
+    /// SSIM of the training view.
+    pub ssim: f64,
+    /// Weighted regularisers (planes + coherence + anchor).
+    pub regularizers: f64,
+    /// Number of Gaussians.
+    pub gaussians: usize,
+    /// Position learning rate.
+    pub lr_position: f64,
+}
 
 /// The state of a training run (with its model, enough to continue bit for bit).
 #[derive(Clone, Debug)]

@@ -11,6 +11,7 @@ use super::densify::{DensifyReport, densify_and_prune, reset_opacity};
 use super::frames::TrainViews;
 use super::optim::StateGroups;
 use super::schedule::Schedule;
+pub use super::state::LogRow;
 use super::state::TrainerState;
 use super::step::{
     StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats, batch_loss_and_grad,
@@ -50,29 +51,6 @@ pub enum TrainError {
         /// The decode error (names the file).
         msg: String,
     },
-}
-
-/// One line of the training log.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct LogRow {
-    /// Iteration.
-    pub iteration: u64,
-    /// Training seconds so far.
-    pub seconds: f64,
-    /// Total loss.
-    pub loss: f64,
-    /// L1 term.
-    pub l1: f64,
-    /// PSNR of the training view (dB).
-    pub psnr: f64,
-    /// SSIM of the training view.
-    pub ssim: f64,
-    /// Weighted regularisers (planes + coherence + anchor).
-    pub regularizers: f64,
-    /// Number of Gaussians.
-    pub gaussians: usize,
-    /// Position learning rate.
-    pub lr_position: f64,
 }
 
 /// What one iteration did.

@@ -5,7 +5,7 @@
 
 use super::protocol::{HeldOutSet, StudyProtocol};
 use super::report::{BaselineRecord, BaselineSets, SetMetrics};
-use super::runner::{PlannedRun, write_atomic};
+use super::runner::{PlannedRun, TRAJECTORY_TIME, write_atomic};
 use crate::app::Reporter;
 use crate::app::error::CommandError;
 use crate::app::paths::RunFolder;
@@ -20,8 +20,6 @@ use evogs_math::Par;
 const FILE: &str = "baselines.json";
 /// Finite-difference step in frame spacings.
 const STEPS: f64 = 2.0;
-/// Time the trajectory error is measured at.
-pub(super) const TRAJECTORY_TIME: f64 = 1.3;
 /// Slack on time comparisons.
 const TIME_EPS: f64 = 1e-9;
 

@@ -15,6 +15,9 @@ use evogs::scenes::{GroundTruth, model_trajectory_error};
 use evogs_math::Par;
 use std::path::{Path, PathBuf};
 
+/// Time the trajectory error is measured at (the end of the future split).
+pub(super) const TRAJECTORY_TIME: f64 = 1.3;
+
 /// The record a finished run leaves in its folder.
 pub(super) const RECORD_FILE: &str = "study-run.json";
 
@@ -161,9 +164,7 @@ fn execute_here(
     let trajectory = match run.protocol {
         StudyProtocol::Future(tau) if run.motion != Motion::Static => {
             let truth = GroundTruth::of_dataset(&ds.root).map_err(|e| at(CommandError::new(e)))?;
-            truth.and_then(|gt| {
-                model_trajectory_error(&mut model, &gt, tau, super::baselines::TRAJECTORY_TIME)
-            })
+            truth.and_then(|gt| model_trajectory_error(&mut model, &gt, tau, TRAJECTORY_TIME))
         }
         _ => None,
     };
