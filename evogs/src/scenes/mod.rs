@@ -8,10 +8,10 @@
 //! |---|---|
 //! | [`law`] | the motion laws (translation, throw, spin, orbit, pendulum, travelling wave) |
 //! | [`body`] | bodies as clouds of small Gaussians (box, sphere, sheet) |
-//! | [`catalogue`] | the scenes |
+//! | [`mod@catalogue`] | the scenes |
 //! | [`build`] | a scene's Gaussians at any time, and its ground truth |
 //! | [`rig`] | monocular and multi-view cameras |
-//! | [`write`] | rendering and the files |
+//! | [`mod@write`] | rendering and the files |
 //! | [`ground_truth`] | `motion.json` |
 //! | [`trajectory`] | the trajectory error of a trained model against the ground truth |
 
