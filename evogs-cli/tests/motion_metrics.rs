@@ -57,16 +57,7 @@ fn frame(c: usize, k: usize) -> Image<f32> {
 fn ring_c2w(c: usize) -> [[f64; 4]; 4] {
     let a = std::f64::consts::TAU * c as f64 / CAMS as f64;
     let eye = Vec3::new(4.0 * a.cos(), 4.0 * a.sin(), 1.5);
-    let back = eye * (1.0 / eye.norm());
-    let right = Vec3::new(0.0, 0.0, 1.0).cross(back);
-    let right = right * (1.0 / right.norm());
-    let up = back.cross(right);
-    [
-        [right.x, up.x, back.x, eye.x],
-        [right.y, up.y, back.y, eye.y],
-        [right.z, up.z, back.z, eye.z],
-        [0.0, 0.0, 0.0, 1.0],
-    ]
+    evogs::scenes::rig::c2w_looking_at(eye, Vec3::new(0.0, 0.0, 0.0))
 }
 
 /// Writes the rig (N3DV layout) into `dir`.

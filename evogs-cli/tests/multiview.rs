@@ -57,16 +57,7 @@ fn pixel(c: usize, k: usize, x: usize, y: usize) -> [f32; 3] {
 fn ring_c2w(c: usize, cams: usize) -> [[f64; 4]; 4] {
     let a = std::f64::consts::TAU * c as f64 / cams as f64;
     let eye = Vec3::new(4.0 * a.cos(), 4.0 * a.sin(), 1.5);
-    let back = eye * (1.0 / eye.norm());
-    let right = Vec3::new(0.0, 0.0, 1.0).cross(back);
-    let right = right * (1.0 / right.norm());
-    let up = back.cross(right);
-    [
-        [right.x, up.x, back.x, eye.x],
-        [right.y, up.y, back.y, eye.y],
-        [right.z, up.z, back.z, eye.z],
-        [0.0, 0.0, 0.0, 1.0],
-    ]
+    evogs::scenes::rig::c2w_looking_at(eye, Vec3::new(0.0, 0.0, 0.0))
 }
 
 fn rig_dir(tag: &str) -> PathBuf {

@@ -16,15 +16,13 @@
 //! Const-vel is exact on trajectories linear in `t`, const-acc on quadratic ones.
 
 use crate::data::{SplitName, View};
-use crate::eval::{FrameMetrics, SplitMetrics};
+use crate::eval::{SplitMetrics, evaluate_renders};
 use crate::field::Gemm;
 use crate::model::Model;
 use crate::model::render_options;
 use evogs_math::so3::{exp_quat, log_quat};
 use evogs_math::{Par, Quat, Vec3};
-use evogs_splat::metrics::mse;
-use evogs_splat::ssim::SsimWorkspace;
-use evogs_splat::{PinholeCamera, Splats, TiledRasterizer, render_tiled};
+use evogs_splat::{Image, PinholeCamera, Splats, TiledRasterizer, render_tiled};
 use serde::{Deserialize, Serialize};
 
 /// A no-training baseline.
@@ -152,7 +150,7 @@ impl Extrapolator {
     }
 
     /// Evaluates the baseline on `views` as [`crate::eval::evaluate_views`] evaluates a model
-    /// (renders clamped to [0, 1], PSNR and the 3DGS SSIM).
+    /// (renders clamped to [0, 1], PSNR and the 3DGS SSIM; no motion masks).
     ///
     /// # Errors
     /// An image that cannot be decoded, or a bad camera.
@@ -163,47 +161,30 @@ impl Extrapolator {
         background: [f32; 3],
         par: Par,
     ) -> Result<SplitMetrics, String> {
-        let mut frames = Vec::with_capacity(views.len());
-        let mut ws = SsimWorkspace::default();
         let mut at = Splats::default();
         let mut rast = TiledRasterizer::new();
         let opts = render_options::<f32>(background, self.at_end.sh_degree, par);
-        for v in views {
-            let target = v.image_or_decode().map_err(|e| e.to_string())?;
-            let target = target.as_ref();
-            let cam: PinholeCamera<f32> = v.camera()?;
-            self.splats_at(v.time, &mut at);
-            let mut img = render_tiled(&at.cast::<f32>(), &cam, &opts, &mut rast)
+        let render = |cam: &PinholeCamera<f32>, t: f64| {
+            self.splats_at(t, &mut at);
+            let mut img = render_tiled(&at.cast::<f32>(), cam, &opts, &mut rast)
                 .raster
                 .rgb;
             for x in img.data_mut() {
                 *x = x.clamp(0.0, 1.0);
             }
-            frames.push(FrameMetrics {
-                file: v.file.display().to_string(),
-                time: v.time,
-                psnr: evogs_splat::metrics::psnr_from_mse(f64::from(mse(&img, target))),
-                ssim: f64::from(ws.ssim(&img, target, par)),
-                camera: String::new(),
-                dynamic_psnr: None,
-                dynamic_ssim: None,
-                mask_fraction: None,
-                mask_rule: None,
-            });
-        }
-        let n = frames.len().max(1) as f64;
-        Ok(SplitMetrics {
+            img
+        };
+        let mut no_masks = |_: &View, _: &Image<f32>| Ok(None);
+        evaluate_renders(
+            views,
             split,
-            psnr: frames.iter().map(|f| f.psnr).sum::<f64>() / n,
-            ssim: frames.iter().map(|f| f.ssim).sum::<f64>() / n,
-            frames,
-            n_gaussians: self.at_end.len(),
-            iterations: 0,
-            train_seconds: 0.0,
-            time_range: None,
-            dynamic: None,
-            dynamic_note: Some("no motion masks for the no-training baselines".into()),
-        })
+            &[],
+            par,
+            &mut no_masks,
+            self.at_end.len(),
+            render,
+            |_, _| {},
+        )
     }
 }
 

@@ -214,18 +214,50 @@ pub fn evaluate_views_masked(
     background: [f32; 3],
     par: Par,
     masks: &mut MaskSource<'_>,
+    progress: impl FnMut(usize, usize),
+) -> Result<SplitMetrics, String> {
+    let n_gaussians = model.len();
+    let mut scratch = Splats::default();
+    let render = |cam: &PinholeCamera<f32>, t: f64| {
+        render_frame(model, cam, t, background, par, &mut scratch)
+    };
+    evaluate_renders(
+        selected,
+        split,
+        rig,
+        par,
+        masks,
+        n_gaussians,
+        render,
+        progress,
+    )
+}
+
+/// The metrics of the images `render` makes (values in [0, 1]) for the cameras and times of
+/// `selected`, whole and inside the masks `masks` gives: the loop shared by a model
+/// ([`evaluate_views_masked`]) and the no-training baselines (`crate::extrapolate`).
+///
+/// # Errors
+/// An image that cannot be decoded, a bad camera, or a mask that cannot be made.
+pub fn evaluate_renders(
+    selected: &[&View],
+    split: SplitName,
+    rig: &[RigCamera],
+    par: Par,
+    masks: &mut MaskSource<'_>,
+    n_gaussians: usize,
+    mut render: impl FnMut(&PinholeCamera<f32>, f64) -> Image<f32>,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<SplitMetrics, String> {
     let mut frames = Vec::with_capacity(selected.len());
     let mut ws = SsimWorkspace::default();
-    let mut scratch = Splats::default();
     let mut map = Image::new(0, 0);
     let mut unmasked = 0usize;
     for (i, v) in selected.iter().enumerate() {
         let target = v.image_or_decode().map_err(|e| e.to_string())?;
         let target = target.as_ref();
         let cam: PinholeCamera<f32> = v.camera()?;
-        let img = render_frame(model, &cam, v.time, background, par, &mut scratch);
+        let img = render(&cam, v.time);
         let m = f64::from(mse(&img, target));
         if !map.same_size(&img) {
             map = Image::new(img.width(), img.height());
@@ -259,7 +291,7 @@ pub fn evaluate_views_masked(
             )
         }),
         frames,
-        n_gaussians: model.len(),
+        n_gaussians,
         iterations: 0,
         train_seconds: 0.0,
         time_range: None,

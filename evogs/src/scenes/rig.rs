@@ -20,7 +20,13 @@ pub const RING_ELEVATION: f64 = 0.5;
 /// z up.
 #[must_use]
 pub fn look_at_c2w(eye: Vec3<f64>) -> [[f64; 4]; 4] {
-    let target = Vec3::new(TARGET[0], TARGET[1], TARGET[2]);
+    c2w_looking_at(eye, Vec3::new(TARGET[0], TARGET[1], TARGET[2]))
+}
+
+/// The D-NeRF camera-to-world matrix of a camera at `eye` looking at `target` with world z
+/// up (OpenGL axes: the camera's back axis points from `target` to `eye`).
+#[must_use]
+pub fn c2w_looking_at(eye: Vec3<f64>, target: Vec3<f64>) -> [[f64; 4]; 4] {
     let back = eye - target;
     let back = back * (1.0 / back.norm());
     let right = Vec3::new(0.0, 0.0, 1.0).cross(back);
