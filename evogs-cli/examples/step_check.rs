@@ -32,7 +32,7 @@ fn main() {
         .map_or(16.0, |s| s.parse().expect("REFINE: a number"));
     let l = checkpoint::load_model(&run.checkpoint()).expect("checkpoint");
     let mut model = l.model;
-    model.field.set_par(Par::best());
+    model.set_par(Par::best());
     let h = model.max_step;
     let times = model.anchor_times.clone();
     println!(

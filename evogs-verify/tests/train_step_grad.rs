@@ -1,15 +1,20 @@
 //! One full training step's gradient (photometric L1 + D-SSIM through render(integrate(field)),
 //! plane regularisers, velocity coherence and the anchor loss) against central differences of
 //! the same step's loss, in f64, for every parameter group (sampled entries), in velocity and
-//! deformation motion, and on a batch of two views. The scene and the per-group check live in
+//! deformation motion, on a batch of two views, and with continuous waypoints (hops and the
+//! teacher loss). The scene and the per-group check live in
 //! `evogs_verify::check::grad` (shared with `evogs check-grad` and the cross-crate tests).
 
-use evogs::model::Motion;
+use evogs::model::{HopRender, HopStart, Motion};
 use evogs::train::step::StepLosses;
 use evogs_verify::check::grad::GradRow;
-use evogs_verify::check::grad::model::{SAMPLES, batch_training_step_rows, training_step_rows};
+use evogs_verify::check::grad::model::{
+    SAMPLES, batch_training_step_rows, continuous_backward_row, continuous_step_rows, teacher_row,
+    training_step_rows,
+};
 use evogs_verify::check::grad::scene::{
-    batch_step_loss_and_grad, grad_scene, param_groups, second_view,
+    batch_step_loss_and_grad, continuous_grad_scene, grad_scene, param_groups, second_view,
+    teacher_sample,
 };
 
 fn check(motion: Motion, seed: u64, groups: usize) {
@@ -92,6 +97,81 @@ fn a_batch_averages_the_photometric_terms_and_counts_the_regularisers_once() {
             let want = 0.5 * ((g.read)(&g_p1, i) + (g.read)(&g_p2, i))
                 + ((g.read)(&g_one, i) - (g.read)(&g_p1, i));
             let got = (g.read)(&g_batch, i);
+            assert!(
+                (got - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                "{}[{i}]: {got} vs {want}",
+                g.name
+            );
+        }
+    }
+}
+
+fn assert_passed(rows: &[GradRow]) {
+    for r in rows {
+        println!(
+            "{}: {} entries, max abs {:.2e}, max rel {:.2e}",
+            r.group, r.entries, r.max_abs, r.max_rel
+        );
+        assert!(
+            r.passed,
+            "{} (or an identically zero gradient): {r:?}",
+            r.group
+        );
+    }
+}
+
+/// Continuous waypoints: the hop (its velocity adjoint into the waypoint displacement) at
+/// times before, inside and after the window, rendering the hop or the waypoint state.
+#[test]
+fn continuous_waypoint_backward_matches_central_differences() {
+    assert_passed(&[
+        continuous_backward_row(HopRender::Hop, 13, SAMPLES),
+        continuous_backward_row(HopRender::Direct, 17, SAMPLES),
+    ]);
+}
+
+/// The teacher loss moves the velocity field only, with the exact gradient.
+#[test]
+fn teacher_loss_gradient_matches_central_differences() {
+    assert_passed(&[teacher_row(19, SAMPLES)]);
+}
+
+/// A whole training step with continuous waypoints (photometric and both fields' plane
+/// regularisers), every parameter group: 5 canonical groups and 2 fields.
+#[test]
+fn continuous_waypoint_step_gradient_matches_central_differences() {
+    for (render, side, seed) in [
+        (HopRender::Hop, HopStart::After, 23),
+        (HopRender::Direct, HopStart::Before, 29),
+    ] {
+        let (losses, rows) = continuous_step_rows(render, side, seed, SAMPLES);
+        assert!(losses.planes > 0.0, "every term is active: {losses:?}");
+        assert_eq!(rows.len(), 7, "parameter groups checked");
+        assert_passed(&rows);
+    }
+}
+
+/// With a teacher the step's loss and gradient are the step's without it plus the teacher
+/// loss and its gradient (checked on its own above), exactly.
+#[test]
+fn the_teacher_adds_its_own_loss_and_gradient_to_the_step() {
+    let mut scene = continuous_grad_scene(HopRender::Hop, HopStart::After, 23);
+    let plain = scene.settings.clone();
+    let mut taught = plain.clone();
+    let t = teacher_sample();
+    taught.teacher = Some(t.clone());
+    let m = &mut scene.model;
+    let (l_plain, g_plain) = batch_step_loss_and_grad(m, &[&scene.view], &plain);
+    let (l_taught, g_taught) = batch_step_loss_and_grad(m, &[&scene.view], &taught);
+    let mut g_teacher = m.zero_grad();
+    let teacher = m.teacher_loss(t.window, &t.indices, t.weight, &mut g_teacher);
+    assert!(teacher > 0.0 && l_plain.teacher == 0.0);
+    assert_eq!(l_taught.teacher, teacher);
+    assert!((l_taught.total - (l_plain.total + teacher)).abs() <= 1e-12);
+    for g in param_groups(m) {
+        for i in 0..g.len {
+            let want = (g.read)(&g_plain, i) + (g.read)(&g_teacher, i);
+            let got = (g.read)(&g_taught, i);
             assert!(
                 (got - want).abs() <= 1e-12 * (1.0 + want.abs()),
                 "{}[{i}]: {got} vs {want}",

@@ -130,7 +130,7 @@ pub fn evaluate_run(
         )));
     }
     let mut model = l.model;
-    model.field.set_par(Par::best());
+    model.set_par(Par::best());
     let selected: Vec<&View> = views
         .iter()
         .filter(|v| range.is_none_or(|(a, b)| v.time >= a && v.time <= b))

@@ -206,7 +206,7 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
     let cams = path_cameras(&args.camera, &ds, &model, count)?;
     let mut out = FrameWriter::create(&args.out, args.gif.then_some("inject.gif"))?;
     model.field.set_count(n);
-    model.field.set_par(Par::best());
+    model.set_par(Par::best());
     let mut stepper = Stepper::new(model.method, gaussian_layout(n));
     let opts = render_options([1.0, 1.0, 1.0], model.canonical.sh_degree, Par::best());
     let mut splats = Splats::default();

@@ -7,14 +7,14 @@
 
 use crate::data::DataFormat;
 use crate::field::{HexPlaneConfig, NeuralFieldConfig};
-use crate::model::{Motion, Waypoints};
+use crate::model::{HopRender, Motion, Waypoints};
 use serde::{Deserialize, Serialize};
 
 mod removed;
 mod sections;
 pub use sections::{
-    DataConfig, DensifyConfig, DynamicsConfig, InitConfig, LossConfig, OptimConfig, Preset,
-    Protocol, ScheduleConfig, TimeCoordinate,
+    DataConfig, DensifyConfig, DynamicsConfig, HopConfig, InitConfig, LossConfig, OptimConfig,
+    Preset, Protocol, ScheduleConfig, TimeCoordinate,
 };
 
 /// Everything a training run needs to know.
@@ -31,6 +31,8 @@ pub struct TrainConfig {
     pub init: InitConfig,
     /// Dynamics.
     pub dynamics: DynamicsConfig,
+    /// Continuous waypoints and hops.
+    pub hop: HopConfig,
     /// The neural field.
     pub field: NeuralFieldConfig,
     /// Loss weights.
@@ -151,6 +153,14 @@ impl TrainConfig {
                 waypoints: Waypoints::Trainable,
                 anchors: 3,
                 time_mapping: TimeCoordinate::Normalized,
+            },
+            hop: HopConfig {
+                length: 0.05,
+                steps: 1,
+                render: HopRender::Hop,
+                teacher: 0.0,
+                teacher_samples: 2000,
+                teacher_span: 0.25,
             },
             field: NeuralFieldConfig {
                 hexplane: HexPlaneConfig {
@@ -310,6 +320,19 @@ impl TrainConfig {
             "dynamics.anchors must be at least 1",
         )?;
         chk(
+            self.hop.length > 0.0 && self.hop.length <= 1.0,
+            "hop.length must be in (0, 1] (a fraction of the training time range)",
+        )?;
+        chk(self.hop.steps >= 1, "hop.steps must be at least 1")?;
+        chk(
+            self.hop.teacher_span > 0.0 && self.hop.teacher_span <= 1.0,
+            "hop.teacher_span must be in (0, 1] (a fraction of the training time range)",
+        )?;
+        chk(
+            self.hop.teacher_samples >= 1,
+            "hop.teacher_samples must be at least 1",
+        )?;
+        chk(
             self.field.hexplane.resolution.iter().all(|&r| r >= 2),
             "field.hexplane.resolution entries must be at least 2",
         )?;
@@ -414,6 +437,7 @@ impl TrainConfig {
             ("loss.l1_time", l.l1_time),
             ("loss.lambda_coherence", l.lambda_coherence),
             ("loss.lambda_anchor", l.lambda_anchor),
+            ("hop.teacher", self.hop.teacher),
         ] {
             nonneg(name, v)?;
         }

@@ -2,7 +2,7 @@
 //! losses, optimiser, densification and schedule (the field's own is beside its code).
 
 use crate::data::DataFormat;
-use crate::model::{Motion, Waypoints};
+use crate::model::{HopRender, Motion, Waypoints};
 use evogs_ode::Method;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -116,14 +116,18 @@ impl std::str::FromStr for Preset {
     }
 }
 
-/// The time coordinate the HexPlane sees: the training time range mapped to `[−1, 1]`, the
-/// only one (the raw time of the released code measured worse, `docs/results.md`; a file
-/// that says `time_mapping = "raw"` is refused).
+/// The time coordinate the HexPlane sees: the training time range mapped to `[−1, 1]`, or
+/// none (the raw time of the released code measured worse, `docs/results.md`; a file that
+/// says `time_mapping = "raw"` is refused).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TimeCoordinate {
-    /// The training time range mapped to `[−1, 1]`.
+    /// The training time range mapped to `[−1, 1]`; after the window the field reads the
+    /// law of the window's nearest end (border clamping, documented in `docs/method.md`).
     Normalized,
+    /// No time input: the field is a function of position alone (an autonomous vector
+    /// field), the same law at every time, inside the window and after it.
+    Autonomous,
 }
 
 /// The ODE method in a configuration file: its name (`rk4`), through `Method`'s `FromStr`
@@ -172,12 +176,12 @@ pub struct DynamicsConfig {
     /// Largest step as a fraction of the training time range (the last step of a frame is
     /// shortened to land on its time).
     pub step_fraction: f64,
-    /// Waypoints: trainable or off.
+    /// Waypoints: trainable, off or continuous (a waypoint field and hops: `[hop]`).
     pub waypoints: Waypoints,
     /// Number of anchors (start, …, end of the training time range).
     pub anchors: usize,
-    /// Time coordinate of the HexPlane: `normalized` (`[t_min, t_max] → [−1, 1]`), the only
-    /// one (kept so that stored configurations load).
+    /// Time coordinate of the HexPlane: `normalized` (`[t_min, t_max] → [−1, 1]`) or
+    /// `autonomous` (no time input: a field of position alone).
     pub time_mapping: TimeCoordinate,
 }
 
@@ -255,6 +259,31 @@ pub struct DensifyConfig {
     pub opacity_reset_interval: u64,
     /// Upper bound on the number of Gaussians.
     pub max_gaussians: usize,
+}
+
+/// Continuous waypoints and hops (`dynamics.waypoints = "continuous"` with velocity motion;
+/// ignored otherwise): `docs/method.md` §6.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HopConfig {
+    /// Hop length as a fraction of the training time range (k frame spacings of a scene
+    /// with F training times over the range: `k/(F − 1)`).
+    pub length: f64,
+    /// ODE steps per hop (the velocity field's step is `length/steps` everywhere, also
+    /// after the window).
+    pub steps: usize,
+    /// What a frame inside the window renders: `hop` (the end of a hop from the waypoint
+    /// state; both fields learn from the image) or `direct` (the waypoint state itself; the
+    /// velocity field learns from the teacher loss alone).
+    pub render: HopRender,
+    /// Weight of the teacher loss (the velocity field against the waypoint field's
+    /// trajectories in 3D, no rendering; 0 disables it).
+    pub teacher: f64,
+    /// Gaussians sampled per teacher evaluation.
+    pub teacher_samples: usize,
+    /// Length of a teacher window as a fraction of the training time range (each step
+    /// draws its start uniformly inside the supervised window).
+    pub teacher_span: f64,
 }
 
 /// Iteration counts and periodic tasks.

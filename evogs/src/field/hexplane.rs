@@ -31,8 +31,13 @@ pub const TIME_PLANES: [usize; 3] = [2, 4, 5];
 /// Planes that are purely spatial.
 pub const SPACE_PLANES: [usize; 3] = [0, 1, 3];
 
-/// How frame times map to the time coordinate (one mapping; an enum so that the checkpoint
-/// format names it).
+/// How frame times map to the time coordinate (an enum so that the checkpoint format names
+/// it).
+///
+/// Outside the mapped range the sampling clamps at the border cells, so a time-dependent
+/// field reads there the law of the range's nearest end: that is the documented behaviour of
+/// [`Normalized`](Self::Normalized) after the training window ("hold the last law"), and
+/// [`Autonomous`](Self::Autonomous) is the choice of a field with no time input at all.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TimeMapping {
@@ -43,6 +48,10 @@ pub enum TimeMapping {
         /// Time mapped to +1.
         t_max: f64,
     },
+    /// No time input: every time maps to the coordinate 0, so the field is a function of
+    /// position alone (an autonomous vector field). The time planes still multiply in, read
+    /// at that one time coordinate: one learned factor per spatial axis.
+    Autonomous,
 }
 
 impl TimeMapping {
@@ -53,6 +62,7 @@ impl TimeMapping {
             Self::Normalized { t_min, t_max } => {
                 (t - T::from_f64(t_min)) * T::from_f64(2.0 / (t_max - t_min)) - T::ONE
             }
+            Self::Autonomous => T::ZERO,
         }
     }
 }

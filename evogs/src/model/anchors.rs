@@ -4,7 +4,9 @@
 //! anchor from the last one; before the first, backward from the first. In
 //! [`Waypoints::Trainable`] mode (multiple shooting) every anchor state is a parameter and an
 //! anchor loss ties the segments into one trajectory; in
-//! [`Waypoints::Off`] mode everything integrates from anchor 0 (the released code).
+//! [`Waypoints::Off`] mode everything integrates from anchor 0 (the released code); in
+//! [`Waypoints::Continuous`] mode a waypoint field replaces the anchors
+//! ([`super::hop`]).
 
 use evogs_math::{Quat, Real, Vec3};
 
@@ -16,6 +18,9 @@ pub enum Waypoints {
     Trainable,
     /// A single anchor at the start of the time range.
     Off,
+    /// Continuous waypoints: a second field gives the state at any time inside the window
+    /// and the velocity field carries it over short hops ([`super::hop`]); one anchor.
+    Continuous,
 }
 
 impl std::str::FromStr for Waypoints {
@@ -24,7 +29,10 @@ impl std::str::FromStr for Waypoints {
         match s {
             "trainable" => Ok(Self::Trainable),
             "off" => Ok(Self::Off),
-            _ => Err(format!("unknown waypoint mode `{s}` (trainable, off)")),
+            "continuous" => Ok(Self::Continuous),
+            _ => Err(format!(
+                "unknown waypoint mode `{s}` (trainable, off, continuous)"
+            )),
         }
     }
 }

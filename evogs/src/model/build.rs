@@ -3,7 +3,7 @@
 //! resuming from a checkpoint and the benchmark all build their models here.
 
 use super::anchors::anchor_times;
-use super::{Model, Waypoints};
+use super::{HopSettings, Model, Motion, Waypoints};
 use crate::config::{TimeCoordinate, TrainConfig};
 use crate::field::{NeuralField, TimeMapping};
 use evogs_splat::Splats;
@@ -20,14 +20,16 @@ pub struct ModelFrame {
     pub max_step: f64,
     /// Anchor times (the first is the canonical state's).
     pub anchor_times: Vec<f64>,
+    /// The training time range (continuous waypoints read their field over it).
+    pub window: (f64, f64),
 }
 
 impl ModelFrame {
     /// The frame of a new run over the training time range `(t0, t1)`: the bounding box of
     /// the canonical positions widened by `init.aabb_margin` of its size on each axis (a unit
     /// box around the origin on an axis without points), the configured time coordinate,
-    /// steps of `dynamics.step_fraction` of the range and `dynamics.anchors` anchor times
-    /// spread evenly over it.
+    /// steps of `dynamics.step_fraction` of the range (continuous waypoints: `hop.length /
+    /// hop.steps` of it) and `dynamics.anchors` anchor times spread evenly over it.
     #[must_use]
     pub fn for_training(cfg: &TrainConfig, canonical: &Splats<f32>, (t0, t1): (f64, f64)) -> Self {
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -50,25 +52,54 @@ impl ModelFrame {
                 t_min: t0,
                 t_max: t1,
             },
+            TimeCoordinate::Autonomous => TimeMapping::Autonomous,
+        };
+        let step_fraction = if continuous(cfg) {
+            cfg.hop.length / cfg.hop.steps as f64
+        } else {
+            cfg.dynamics.step_fraction
         };
         Self {
             aabb: (lo, hi),
             time,
-            max_step: cfg.dynamics.step_fraction * (t1 - t0),
+            max_step: step_fraction * (t1 - t0),
             anchor_times: anchor_times(t0, t1, cfg.dynamics.anchors),
+            window: (t0, t1),
         }
     }
 }
 
+/// Whether `cfg` asks for continuous waypoints (velocity motion only; the other motions
+/// ignore the waypoint mode).
+#[must_use]
+pub fn continuous(cfg: &TrainConfig) -> bool {
+    cfg.dynamics.motion == Motion::Velocity && cfg.dynamics.waypoints == Waypoints::Continuous
+}
+
 /// The model of `cfg` (field, motion, waypoints, integrator) on the canonical Gaussians in
-/// `frame`; the field's parameters are initialised from the seed (a checkpoint overwrites
-/// them), the anchors are copies of the canonical state and the dynamics are off.
+/// `frame`; the fields' parameters are initialised from the seed (a checkpoint overwrites
+/// them), the anchors are copies of the canonical state and the dynamics are off. With
+/// continuous waypoints the waypoint field has the velocity field's shape and reads time
+/// over the training window.
 #[must_use]
 pub fn build_model(cfg: &TrainConfig, canonical: Splats<f32>, frame: ModelFrame) -> Model<f32> {
     let (lo, hi) = frame.aabb;
     let field = NeuralField::new(&cfg.field, lo, hi, frame.time, cfg.seed ^ 0x5eed);
     let waypoints: Waypoints = cfg.dynamics.waypoints;
-    Model::new(
+    let (t0, t1) = frame.window;
+    let waypoint_field = continuous(cfg).then(|| {
+        let time = TimeMapping::Normalized {
+            t_min: t0,
+            t_max: t1,
+        };
+        NeuralField::new(&cfg.field, lo, hi, time, cfg.seed ^ 0x0a1f)
+    });
+    let hop = HopSettings {
+        window: frame.window,
+        length: cfg.hop.length * (t1 - t0),
+        render: cfg.hop.render,
+    };
+    let mut model = Model::new(
         canonical,
         field,
         cfg.dynamics.motion,
@@ -76,5 +107,8 @@ pub fn build_model(cfg: &TrainConfig, canonical: Splats<f32>, frame: ModelFrame)
         cfg.dynamics.method,
         frame.max_step,
         frame.anchor_times,
-    )
+    );
+    model.waypoint_field = waypoint_field;
+    model.hop = hop;
+    model
 }

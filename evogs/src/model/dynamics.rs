@@ -8,23 +8,21 @@
 //! `q̂ = q/|q|`; the gradient returns through the left-cotangent conversion and the
 //! normalisation VJP.
 
+use super::displace::{displace, displace_vjp};
+use super::hop::{HopStart, HopTape};
+use super::packing::{TANGENT, pack_state, unpack};
 use super::{Model, ModelGrad, Motion, Waypoints};
 use crate::field::neural::STATE_STRIDE;
-use crate::field::{Batch, BatchVjp, FieldRecord, Gemm};
+use crate::field::{FieldRecord, Gemm};
 use evogs_math::activation::normalize_quat_vjp;
 use evogs_math::so3::log_quat;
-use evogs_math::update::{
-    ambient_from_left_cotangent, exp_update_left, exp_update_left_vjp, left_cotangent_from_ambient,
-};
-use evogs_math::{Quat, Real, Vec3};
+use evogs_math::update::{ambient_from_left_cotangent, left_cotangent_from_ambient};
+use evogs_math::{Quat, Vec3};
 use evogs_ode::{
     StageTape, Stepper, TimeGrid, Trajectory, VectorField, discrete_adjoint,
     discrete_adjoint_recorded, integrate, integrate_recorded,
 };
 use evogs_splat::{Splats, SplatsGrad};
-
-/// Tangent entries per Gaussian.
-const TANGENT: usize = 9;
 
 /// How far outside its trained time range a model is evaluated, in multiples of that range
 /// ([`Model::check_time`]).
@@ -49,6 +47,8 @@ pub enum FrameTape<T> {
         /// The recording that holds the stages' field records.
         recording: u64,
     },
+    /// A hop of the velocity field from a continuous waypoint state.
+    Hop(HopTape<T>),
     /// Displaced by the network outputs `out` (N × 9) evaluated at time `t`.
     Deformation {
         /// Frame time.
@@ -65,11 +65,15 @@ pub enum FrameTape<T> {
 #[derive(Debug)]
 pub(super) struct FrameRecords<T> {
     /// Which recording the records belong to (incremented for every new one).
-    serial: u64,
+    pub(super) serial: u64,
     /// The stage records of the last integration.
-    stages: StageTape<T, FieldRecord<T>>,
+    pub(super) stages: StageTape<T, FieldRecord<T>>,
     /// The record of the last displacement.
-    displacement: FieldRecord<T>,
+    pub(super) displacement: FieldRecord<T>,
+    /// Which waypoint evaluation `waypoint` belongs to (continuous waypoints).
+    pub(super) waypoint_serial: u64,
+    /// The record of the last waypoint-field evaluation.
+    pub(super) waypoint: FieldRecord<T>,
 }
 
 impl<T: Gemm> Default for FrameRecords<T> {
@@ -78,38 +82,15 @@ impl<T: Gemm> Default for FrameRecords<T> {
             serial: 0,
             stages: StageTape::new(0),
             displacement: FieldRecord::default(),
+            waypoint_serial: 0,
+            waypoint: FieldRecord::default(),
         }
     }
 }
 
-/// Packs anchor parameters into ODE states (quaternions normalised).
-fn pack_state<T: Real>(
-    means: &[Vec3<T>],
-    log_scales: &[Vec3<T>],
-    quats: &[Quat<T>],
-    y: &mut Vec<T>,
-) {
-    y.clear();
-    for i in 0..means.len() {
-        let q = quats[i].normalize();
-        y.extend_from_slice(&[means[i].x, means[i].y, means[i].z, q.w, q.x, q.y, q.z]);
-        y.extend_from_slice(&[log_scales[i].x, log_scales[i].y, log_scales[i].z]);
-    }
-}
-
-/// Gaussian `i` of an ODE state.
-fn unpack<T: Real>(y: &[T], i: usize) -> (Vec3<T>, Quat<T>, Vec3<T>) {
-    let s = &y[i * STATE_STRIDE..(i + 1) * STATE_STRIDE];
-    (
-        Vec3::from_slice(s),
-        Quat::from_slice(&s[3..]),
-        Vec3::from_slice(&s[7..]),
-    )
-}
-
 impl<T: Gemm> Model<T> {
     /// A stepper for the current number of Gaussians (rebuilt when the count changes).
-    fn stepper(&mut self, stepper: &mut Option<Stepper<T>>) -> Stepper<T> {
+    pub(super) fn stepper(&mut self, stepper: &mut Option<Stepper<T>>) -> Stepper<T> {
         self.field.set_count(self.len());
         match stepper.take() {
             Some(s) if *s.layout() == self.field.layout() => s,
@@ -118,7 +99,7 @@ impl<T: Gemm> Model<T> {
     }
 
     /// The time grid from anchor `k` to `t`.
-    fn grid(&self, k: usize, t: f64) -> TimeGrid<T> {
+    pub(super) fn grid(&self, k: usize, t: f64) -> TimeGrid<T> {
         TimeGrid::with_max_step(
             T::from_f64(self.anchor_times[k]),
             T::from_f64(t),
@@ -181,16 +162,30 @@ impl<T: Gemm> Model<T> {
     #[must_use]
     pub fn anchor_for(&self, t: f64) -> usize {
         match self.waypoints {
-            Waypoints::Off => 0,
+            Waypoints::Off | Waypoints::Continuous => 0,
             _ => super::anchor_for_time(&self.anchor_times, t),
         }
     }
 
     /// Writes the Gaussians at time `t` into `out` and returns what the backward needs.
-    /// `stepper` caches the ODE stepper between calls.
+    /// `stepper` caches the ODE stepper between calls. With continuous waypoints a frame
+    /// inside the window hops from the waypoint state one hop before `t`
+    /// ([`HopStart::Before`]; [`splats_at_from`](Self::splats_at_from) chooses).
     pub fn splats_at(
         &mut self,
         t: f64,
+        stepper: &mut Option<Stepper<T>>,
+        out: &mut Splats<T>,
+    ) -> FrameTape<T> {
+        self.splats_at_from(t, HopStart::Before, stepper, out)
+    }
+
+    /// [`splats_at`](Self::splats_at) with the side a hop inside the window starts from
+    /// (continuous waypoints; ignored otherwise).
+    pub fn splats_at_from(
+        &mut self,
+        t: f64,
+        side: HopStart,
         stepper: &mut Option<Stepper<T>>,
         out: &mut Splats<T>,
     ) -> FrameTape<T> {
@@ -201,6 +196,9 @@ impl<T: Gemm> Model<T> {
         let tf = T::from_f64(t);
         let n = self.len();
         match self.motion {
+            Motion::Velocity if self.waypoints == Waypoints::Continuous => {
+                FrameTape::Hop(self.hop_forward(t, side, stepper, out))
+            }
             Motion::Velocity => {
                 let k = self.anchor_for(t);
                 let (m, s, q) = self.anchor_state(k);
@@ -222,33 +220,15 @@ impl<T: Gemm> Model<T> {
                 }
             }
             Motion::Deformation => {
-                let pos: Vec<T> = self
-                    .canonical
-                    .means
-                    .iter()
-                    .flat_map(|v| v.to_array())
-                    .collect();
-                let mut net = vec![T::ZERO; n * TANGENT];
-                let at = Batch {
-                    t: tf,
-                    positions: &pos,
-                    stride: 3,
-                    n,
-                };
                 self.records.serial += 1;
                 let recording = self.records.serial;
-                self.field
-                    .eval_batch(&at, &mut net, Some(&mut self.records.displacement));
-                for i in 0..n {
-                    let o = &net[i * TANGENT..];
-                    out.means[i] += Vec3::from_slice(o);
-                    out.quats[i] = exp_update_left(
-                        self.canonical.quats[i].normalize(),
-                        Vec3::from_slice(&o[3..]),
-                        T::ONE,
-                    );
-                    out.log_scales[i] += Vec3::from_slice(&o[6..]);
-                }
+                let net = displace(
+                    &mut self.field,
+                    &mut self.records.displacement,
+                    &self.canonical,
+                    tf,
+                    out,
+                );
                 FrameTape::Deformation {
                     t: tf,
                     out: net,
@@ -303,57 +283,30 @@ impl<T: Gemm> Model<T> {
                 self.adjoint_to_anchor(*anchor, trajectory, *recording, &d_final, stepper, grad);
             }
             FrameTape::Deformation { t, out, recording } => {
-                let mut d_net = vec![T::ZERO; n * TANGENT];
-                for i in 0..n {
-                    let q0 = self.canonical.quats[i];
-                    let o = &out[i * TANGENT..];
-                    let g = exp_update_left_vjp(
-                        q0.normalize(),
-                        Vec3::from_slice(&o[3..]),
-                        T::ONE,
-                        d.quats[i],
-                    );
-                    let dn = &mut d_net[i * TANGENT..(i + 1) * TANGENT];
-                    d.means[i].write_to(dn);
-                    g.omega.write_to(&mut dn[3..]);
-                    d.log_scales[i].write_to(&mut dn[6..]);
-                    grad.canonical.means[i] += d.means[i];
-                    grad.canonical.log_scales[i] += d.log_scales[i];
-                    grad.canonical.quats[i] = grad.canonical.quats[i] + normalize_quat_vjp(q0, g.q);
-                }
-                let pos: Vec<T> = self
-                    .canonical
-                    .means
-                    .iter()
-                    .flat_map(|v| v.to_array())
-                    .collect();
-                let mut d_pos = vec![T::ZERO; n * 3];
                 let record =
                     (*recording == self.records.serial).then_some(&self.records.displacement);
-                self.field.vjp_batch(BatchVjp {
-                    at: Batch {
-                        t: *t,
-                        positions: &pos,
-                        stride: 3,
-                        n,
-                    },
+                displace_vjp(
+                    &mut self.field,
                     record,
-                    d_out: &d_net,
-                    d_positions: &mut d_pos,
-                    d_stride: 3,
-                    d_params: &mut grad.field,
-                });
-                for i in 0..n {
-                    grad.canonical.means[i] += Vec3::from_slice(&d_pos[i * 3..]);
-                }
+                    &self.canonical,
+                    *t,
+                    out,
+                    (&d.means, &d.log_scales, &d.quats),
+                    {
+                        let c = &mut grad.canonical;
+                        (&mut c.means, &mut c.log_scales, &mut c.quats)
+                    },
+                    &mut grad.field,
+                );
             }
+            FrameTape::Hop(hop) => self.hop_backward(hop, stepper, d, grad),
         }
     }
 
     /// Integrates from `y0` over `grid` as a new recording: the field records of the last
     /// steps that fit the field's memory budget are kept for the adjoint. Returns the
     /// trajectory and the recording's serial number.
-    fn integrate_recorded(
+    pub(super) fn integrate_recorded(
         &mut self,
         grid: &TimeGrid<T>,
         y0: &[T],
@@ -371,6 +324,44 @@ impl<T: Gemm> Model<T> {
         (trajectory, self.records.serial)
     }
 
+    /// Runs the discrete adjoint of `trajectory` (integrated as `recording`) for the final
+    /// cotangent `d_final`, adds the field gradient into `d_params` and returns the
+    /// cotangent of the initial state (`N × 9`).
+    pub(super) fn adjoint(
+        &mut self,
+        trajectory: &Trajectory<T>,
+        recording: u64,
+        d_final: &[T],
+        stepper: &mut Option<Stepper<T>>,
+        d_params: &mut [T],
+    ) -> Vec<T> {
+        let n = self.len();
+        let mut d_y0 = vec![T::ZERO; n * TANGENT];
+        let mut st = self.stepper(stepper);
+        if recording == self.records.serial {
+            discrete_adjoint_recorded(
+                &mut self.field,
+                &mut st,
+                trajectory,
+                &mut self.records.stages,
+                d_final,
+                &mut d_y0,
+                d_params,
+            );
+        } else {
+            discrete_adjoint(
+                &mut self.field,
+                &mut st,
+                trajectory,
+                d_final,
+                &mut d_y0,
+                d_params,
+            );
+        }
+        *stepper = Some(st);
+        d_y0
+    }
+
     /// Runs the discrete adjoint of `trajectory` (integrated from anchor `k` as
     /// `recording`) for the final cotangent `d_final` and adds the anchor and field
     /// gradients into `grad`.
@@ -384,29 +375,7 @@ impl<T: Gemm> Model<T> {
         grad: &mut ModelGrad<T>,
     ) {
         let n = self.len();
-        let mut d_y0 = vec![T::ZERO; n * TANGENT];
-        let mut st = self.stepper(stepper);
-        if recording == self.records.serial {
-            discrete_adjoint_recorded(
-                &mut self.field,
-                &mut st,
-                trajectory,
-                &mut self.records.stages,
-                d_final,
-                &mut d_y0,
-                &mut grad.field,
-            );
-        } else {
-            discrete_adjoint(
-                &mut self.field,
-                &mut st,
-                trajectory,
-                d_final,
-                &mut d_y0,
-                &mut grad.field,
-            );
-        }
-        *stepper = Some(st);
+        let d_y0 = self.adjoint(trajectory, recording, d_final, stepper, &mut grad.field);
         let y0 = trajectory.initial_state();
         let raw: Vec<Quat<T>> = self.anchor_state(k).2.to_vec();
         let (gm, gs, gq) = grad.anchor_state_mut(k);

@@ -10,12 +10,17 @@
 //!
 //! Opacity and SH colour are canonical (shared by all times). Anchor `0` is the canonical
 //! state itself; anchors `1..K` hold their own positions, log-scales and raw quaternions.
+//! With continuous waypoints ([`Waypoints::Continuous`], [`hop`]) a second field gives the
+//! state at any time inside the window, and the velocity field carries it over short hops.
 
 pub mod anchors;
 pub mod build;
+pub mod displace;
 pub mod dynamics;
+pub mod hop;
 pub mod init;
 pub mod order;
+pub mod packing;
 pub mod render;
 pub mod retain;
 
@@ -23,6 +28,7 @@ pub use anchors::{AnchorState, Waypoints, anchor_for_time};
 pub use build::{ModelFrame, build_model};
 use dynamics::FrameRecords;
 pub use dynamics::FrameTape;
+pub use hop::{HopRender, HopSettings, HopStart};
 pub use render::render_options;
 
 use crate::field::{Gemm, NeuralField};
@@ -89,6 +95,11 @@ pub struct Model<T> {
     pub max_step: f64,
     /// Whether the dynamics are switched on (off during the static warm-up).
     pub dynamics_active: bool,
+    /// The waypoint field of continuous waypoints (a displacement of the canonical state,
+    /// read at the time a hop starts); `None` in every other mode.
+    pub waypoint_field: Option<NeuralField<T>>,
+    /// Where hops start (continuous waypoints).
+    pub hop: HopSettings,
     /// The field's forward records of the last frame or anchor segment, for its backward
     /// pass.
     records: FrameRecords<T>,
@@ -108,6 +119,8 @@ pub struct ModelGrad<T> {
     pub anchors: Vec<AnchorState<T>>,
     /// Field parameters.
     pub field: Vec<T>,
+    /// Waypoint-field parameters (empty without continuous waypoints).
+    pub waypoint_field: Vec<T>,
 }
 
 impl<T: Gemm> Model<T> {
@@ -122,7 +135,7 @@ impl<T: Gemm> Model<T> {
         max_step: f64,
         anchor_times: Vec<f64>,
     ) -> Self {
-        let anchor_times = if waypoints == Waypoints::Off {
+        let anchor_times = if waypoints != Waypoints::Trainable {
             anchor_times.into_iter().take(1).collect()
         } else {
             anchor_times
@@ -143,7 +156,18 @@ impl<T: Gemm> Model<T> {
             method,
             max_step,
             dynamics_active: false,
+            waypoint_field: None,
+            hop: HopSettings::default(),
             records: FrameRecords::default(),
+        }
+    }
+
+    /// Sets the parallelism of the fields' evaluations (results are deterministic for a
+    /// given thread count).
+    pub fn set_par(&mut self, par: evogs_math::Par) {
+        self.field.set_par(par);
+        if let Some(f) = self.waypoint_field.as_mut() {
+            f.set_par(par);
         }
     }
 
@@ -166,6 +190,10 @@ impl<T: Gemm> Model<T> {
             canonical: self.canonical.zeros_like(),
             anchors: self.anchors.iter().map(AnchorState::zeros_like).collect(),
             field: vec![T::ZERO; self.field.params().len()],
+            waypoint_field: vec![
+                T::ZERO;
+                self.waypoint_field.as_ref().map_or(0, |f| f.params().len())
+            ],
         }
     }
 
@@ -224,6 +252,7 @@ impl<T: Gemm> ModelGrad<T> {
             a.fill_zero();
         }
         self.field.fill(T::ZERO);
+        self.waypoint_field.fill(T::ZERO);
     }
 
     /// The gradient slots of anchor `k` (0 = canonical).
@@ -248,5 +277,6 @@ impl<T: Gemm> ModelGrad<T> {
             && c.sh.iter().flatten().all(|v| v.is_finite())
             && self.anchors.iter().all(AnchorState::is_finite)
             && self.field.iter().all(|v| v.is_finite())
+            && self.waypoint_field.iter().all(|v| v.is_finite())
     }
 }

@@ -157,6 +157,9 @@ pub fn save(t: &Trainer, path: &Path) -> Result<(), CheckpointError> {
         ar.put_f32(&format!("anchor{k}.quats"), &flat_quat(&a.quats));
     }
     ar.put_f32("field", m.field.params());
+    if let Some(wf) = &m.waypoint_field {
+        ar.put_f32("waypoint_field", wf.params());
+    }
     let mut steps = Vec::new();
     let o = &st.optim;
     for g in o.groups() {
@@ -277,6 +280,7 @@ pub fn load_model(path: &Path) -> Result<Loaded, CheckpointError> {
         time: meta.time_mapping,
         max_step: meta.max_step,
         anchor_times: meta.anchor_times.clone(),
+        window: (meta.time_range[0], meta.time_range[1]),
     };
     let mut model = build_model(&cfg, canonical, frame);
     let params = f("field")?;
@@ -288,6 +292,17 @@ pub fn load_model(path: &Path) -> Result<Loaded, CheckpointError> {
         )));
     }
     model.field.params_mut().copy_from_slice(params);
+    if let Some(wf) = model.waypoint_field.as_mut() {
+        let params = f("waypoint_field")?;
+        if params.len() != wf.params().len() {
+            return Err(bad(format!(
+                "waypoint_field has {} parameters, the configuration needs {}",
+                params.len(),
+                wf.params().len()
+            )));
+        }
+        wf.params_mut().copy_from_slice(params);
+    }
     for k in 0..model.anchors.len() {
         model.anchors[k] = AnchorState {
             means: v3(f(&format!("anchor{k}.means"))?),

@@ -58,6 +58,8 @@ pub struct Optimizer {
     pub grid: AdamState,
     /// MLP parameters and output scales.
     pub mlp: AdamState,
+    /// The waypoint field's HexPlane and MLP (continuous waypoints only).
+    pub waypoint: Option<(AdamState, AdamState)>,
 }
 
 /// The learning rates of one iteration.
@@ -125,6 +127,9 @@ fn quat_pairs<'a>(
     })
 }
 
+/// The message of a waypoint group asked of a model without a waypoint field.
+const NO_WAYPOINT: &str = "a waypoint group needs a waypoint field";
+
 /// One parameter group of a model, with its own Adam state: the list of groups exists once,
 /// in [`Optimizer::for_each_group`] (Adam steps, checkpoints and densification all walk it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -151,6 +156,10 @@ pub enum Group {
     Grid,
     /// MLP parameters and output scales.
     Mlp,
+    /// The waypoint field's HexPlane parameters (continuous waypoints).
+    WaypointGrid,
+    /// The waypoint field's MLP parameters and output scales (continuous waypoints).
+    WaypointMlp,
 }
 
 impl Group {
@@ -169,6 +178,8 @@ impl Group {
             Self::AnchorQuats(k) => format!("anchor{k}.quats"),
             Self::Grid => "grid".into(),
             Self::Mlp => "mlp".into(),
+            Self::WaypointGrid => "waypoint_grid".into(),
+            Self::WaypointMlp => "waypoint_mlp".into(),
         }
     }
 
@@ -185,7 +196,7 @@ impl Group {
             Self::Quats | Self::AnchorQuats(_) => Some(4),
             Self::Opacity => Some(1),
             Self::ShRest => Some(3 * (sh_coeffs - 1)),
-            Self::Grid | Self::Mlp => None,
+            Self::Grid | Self::Mlp | Self::WaypointGrid | Self::WaypointMlp => None,
         }
     }
 
@@ -200,6 +211,8 @@ impl Group {
                 | Self::AnchorQuats(_)
                 | Self::Grid
                 | Self::Mlp
+                | Self::WaypointGrid
+                | Self::WaypointMlp
         )
     }
 
@@ -213,8 +226,8 @@ impl Group {
             Self::Opacity => lr.opacity,
             Self::ShDc => lr.feature,
             Self::ShRest => lr.feature / 20.0,
-            Self::Grid => lr.grid,
-            Self::Mlp => lr.deformation,
+            Self::Grid | Self::WaypointGrid => lr.grid,
+            Self::Mlp | Self::WaypointMlp => lr.deformation,
         }
     }
 }
@@ -234,12 +247,19 @@ impl Optimizer {
             anchors: model.anchors.iter().map(|_| StateGroups::new(n)).collect(),
             grid: AdamState::new(model.field.grid_range().len()),
             mlp: AdamState::new(model.field.mlp_range().len()),
+            waypoint: model.waypoint_field.as_ref().map(|f| {
+                (
+                    AdamState::new(f.grid_range().len()),
+                    AdamState::new(f.mlp_range().len()),
+                )
+            }),
         }
     }
 
     /// Every parameter group, in the checkpoints' order: canonical positions, log-scales,
     /// quaternions, opacity, SH DC, higher SH, each anchor's positions, log-scales and
-    /// quaternions, HexPlane, MLP. The one list of the groups.
+    /// quaternions, HexPlane, MLP, and the waypoint field's HexPlane and MLP when there is
+    /// one. The one list of the groups.
     pub fn groups(&self) -> impl Iterator<Item = Group> + use<> {
         let canonical = [
             Group::Means,
@@ -256,10 +276,17 @@ impl Optimizer {
                 Group::AnchorQuats(k),
             ]
         });
+        let waypoint = self
+            .waypoint
+            .is_some()
+            .then_some([Group::WaypointGrid, Group::WaypointMlp])
+            .into_iter()
+            .flatten();
         canonical
             .into_iter()
             .chain(anchors)
             .chain([Group::Grid, Group::Mlp])
+            .chain(waypoint)
     }
 
     /// Calls `f` with every parameter group ([`groups`](Self::groups)) and its Adam state.
@@ -272,7 +299,8 @@ impl Optimizer {
     /// The Adam state of a group.
     ///
     /// # Panics
-    /// An anchor group of an anchor the optimiser does not have.
+    /// An anchor group of an anchor the optimiser does not have, or a waypoint group
+    /// without a waypoint field.
     #[must_use]
     pub fn state(&self, g: Group) -> &AdamState {
         match g {
@@ -287,13 +315,16 @@ impl Optimizer {
             Group::AnchorQuats(k) => &self.anchors[k].quats,
             Group::Grid => &self.grid,
             Group::Mlp => &self.mlp,
+            Group::WaypointGrid => &self.waypoint.as_ref().expect(NO_WAYPOINT).0,
+            Group::WaypointMlp => &self.waypoint.as_ref().expect(NO_WAYPOINT).1,
         }
     }
 
     /// The Adam state of a group, to change.
     ///
     /// # Panics
-    /// An anchor group of an anchor the optimiser does not have.
+    /// An anchor group of an anchor the optimiser does not have, or a waypoint group
+    /// without a waypoint field.
     pub fn state_mut(&mut self, g: Group) -> &mut AdamState {
         match g {
             Group::Means => &mut self.canonical.means,
@@ -307,6 +338,8 @@ impl Optimizer {
             Group::AnchorQuats(k) => &mut self.anchors[k].quats,
             Group::Grid => &mut self.grid,
             Group::Mlp => &mut self.mlp,
+            Group::WaypointGrid => &mut self.waypoint.as_mut().expect(NO_WAYPOINT).0,
+            Group::WaypointMlp => &mut self.waypoint.as_mut().expect(NO_WAYPOINT).1,
         }
     }
 
@@ -378,6 +411,20 @@ impl Optimizer {
                     &mut model.field.params_mut()[mr.clone()],
                     &grad.field[mr.clone()],
                 ),
+                Group::WaypointGrid | Group::WaypointMlp => {
+                    let f = model.waypoint_field.as_mut().expect(NO_WAYPOINT);
+                    let r = if group == Group::WaypointGrid {
+                        f.grid_range()
+                    } else {
+                        f.mlp_range()
+                    };
+                    st.step(
+                        &adam,
+                        rate,
+                        &mut f.params_mut()[r.clone()],
+                        &grad.waypoint_field[r],
+                    );
+                }
             }
         });
     }

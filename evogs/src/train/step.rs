@@ -6,6 +6,7 @@
 //!   + w_tv·TV + w_t·TimeSmooth + w_l1·L1Time            HexPlane regularisers (dynamics on)
 //!   + λ_coh·L_coh(v at sampled Gaussians, t)            velocity coherence (velocity motion)
 //!   + λ_anchor·L_anchor(segment k)                      anchor loss (trainable waypoints)
+//!   + λ_teacher·L_teacher(window a → b)                 teacher loss (continuous waypoints)
 //! ```
 //!
 //! The gradient flows end to end: pixel cotangents → rasterizer VJP → projection/SH VJP →
@@ -14,7 +15,7 @@
 
 use crate::field::regularize::{PlaneRegWeights, plane_regularizers};
 use crate::field::{Batch, BatchVjp, FieldRecord, Gemm};
-use crate::model::{Model, ModelGrad, Motion, Waypoints};
+use crate::model::{HopStart, Model, ModelGrad, Motion, Waypoints};
 use crate::train::coherence::{COHERENCE_K, coherence_loss};
 use crate::train::render_pass::{RenderTimes, render_backward, render_forward};
 use evogs_math::Real;
@@ -55,6 +56,22 @@ pub struct StepSettings {
     /// Positions where the coherence loss queries the velocity: canonical positions of
     /// sampled Gaussians, copied (detached) when sampled (fewer than two: no coherence).
     pub coherence_points: Vec<[f64; 3]>,
+    /// The side of the rendered time a hop starts from (continuous waypoints).
+    pub hop_start: HopStart,
+    /// The teacher loss of this step, if any (continuous waypoints).
+    pub teacher: Option<TeacherSample>,
+}
+
+/// One evaluation of the teacher loss ([`Model::teacher_loss`]): its window, the sampled
+/// Gaussians and the weight.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TeacherSample {
+    /// From the waypoint state at `window.0` to `window.1`.
+    pub window: (f64, f64),
+    /// The Gaussians it follows.
+    pub indices: Vec<usize>,
+    /// Its weight.
+    pub weight: f64,
 }
 
 /// The terms of one step's loss.
@@ -74,6 +91,8 @@ pub struct StepLosses {
     pub coherence: f64,
     /// Weighted anchor loss.
     pub anchor: f64,
+    /// Weighted teacher loss (continuous waypoints).
+    pub teacher: f64,
     /// Seconds spent in each phase of the step.
     pub timings: StepTimings,
 }
@@ -227,7 +246,7 @@ pub fn view_loss_and_grad<T: Gemm>(
     let clock = std::time::Instant::now();
     let mut timings = StepTimings::default();
     let mut splats_t = core::mem::take(&mut ws.splats_t);
-    let tape = model.splats_at(view.time, &mut ws.stepper, &mut splats_t);
+    let tape = model.splats_at_from(view.time, s.hop_start, &mut ws.stepper, &mut splats_t);
     timings.dynamics = clock.elapsed().as_secs_f64();
     let mut fwd = ws.render.take().unwrap_or_else(|| Render {
         pre: evogs_splat::Preprocessed::default(),
@@ -311,8 +330,9 @@ pub fn view_loss_and_grad<T: Gemm>(
     (losses, stats)
 }
 
-/// The regularisers of a step at time `t`: the HexPlane terms, the velocity coherence and
-/// the anchor loss, as `s` enables them and the model's motion uses them. **Adds** their
+/// The regularisers of a step at time `t`: the HexPlane terms (of both fields with
+/// continuous waypoints), the velocity coherence, the anchor loss and the teacher loss, as
+/// `s` enables them and the model's motion uses them. **Adds** their
 /// gradients into `grad`, their values into `losses` (and its total) and their time into
 /// `losses.timings.extra`. Counted once per step, however many views it has.
 pub fn regularizers_and_grad<T: Gemm>(
@@ -335,6 +355,17 @@ pub fn regularizers_and_grad<T: Gemm>(
             &mut grad.field[range],
         );
         losses.planes = v.total;
+        if let Some(wf) = &model.waypoint_field {
+            let hex = wf.hexplane().clone();
+            let range = wf.grid_range();
+            let v = plane_regularizers(
+                &hex,
+                &wf.params()[range.clone()],
+                &s.plane_reg,
+                &mut grad.waypoint_field[range],
+            );
+            losses.planes += v.total;
+        }
     }
     if dynamic
         && model.motion == Motion::Velocity
@@ -349,7 +380,10 @@ pub fn regularizers_and_grad<T: Gemm>(
     ) {
         losses.anchor = model.anchor_loss(k, s.lambda_anchor, &mut ws.stepper, grad);
     }
-    losses.total += losses.planes + losses.coherence + losses.anchor;
+    if let (true, Some(teacher)) = (dynamic, &s.teacher) {
+        losses.teacher = model.teacher_loss(teacher.window, &teacher.indices, teacher.weight, grad);
+    }
+    losses.total += losses.planes + losses.coherence + losses.anchor + losses.teacher;
     losses.timings.extra += clock.elapsed().as_secs_f64();
 }
 

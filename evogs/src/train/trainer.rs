@@ -14,12 +14,13 @@ use super::schedule::Schedule;
 pub use super::state::LogRow;
 use super::state::TrainerState;
 use super::step::{
-    StepLosses, StepSettings, StepWorkspace, ViewData, accumulate_screen_stats, batch_loss_and_grad,
+    StepLosses, StepSettings, StepWorkspace, TeacherSample, ViewData, accumulate_screen_stats,
+    batch_loss_and_grad,
 };
 use crate::config::TrainConfig;
 use crate::field::regularize::PlaneRegWeights;
 use crate::model::init::{gaussians_from_points, random_points};
-use crate::model::{Model, ModelFrame, ModelGrad, Motion, build_model, render_options};
+use crate::model::{HopStart, Model, ModelFrame, ModelGrad, Motion, build_model, render_options};
 use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
 use std::time::Instant;
@@ -149,7 +150,7 @@ impl Trainer {
         state.check(&model).map_err(TrainError::Setup)?;
         let schedule = Schedule::new(&cfg, state.time_range, &model.anchor_times, state.extent);
         let par = Par::best();
-        model.field.set_par(par);
+        model.set_par(par);
         Ok(Self {
             cfg,
             model,
@@ -261,6 +262,15 @@ impl Trainer {
     /// The loss settings of iteration `it`: the weights, the anchor segment, and the
     /// coherence sample (drawn without replacement when the coherence loss applies).
     fn settings(&mut self, it: u64) -> StepSettings {
+        let continuous = self.model.dynamics_active && self.model.waypoint_field.is_some();
+        // Drawn only with continuous waypoints, so the other modes' random streams are the
+        // ones they always were.
+        let hop_start = if continuous && self.state.rng.below(2) == 1 {
+            HopStart::After
+        } else {
+            HopStart::Before
+        };
+        let teacher = (continuous && self.cfg.hop.teacher > 0.0).then(|| self.teacher_sample(it));
         let l = &self.cfg.loss;
         let n = self.model.len();
         let m = l.coherence_samples.min(n);
@@ -294,6 +304,33 @@ impl Trainer {
             lambda_anchor: l.lambda_anchor,
             anchor_segment: self.schedule.anchor_segment(it),
             coherence_points,
+            hop_start,
+            teacher,
+        }
+    }
+
+    /// The teacher loss's draw for iteration `it`: `hop.teacher_samples` Gaussians (without
+    /// replacement) and a window of `hop.teacher_span` of the time range (shortened to the
+    /// supervised window) starting uniformly inside the supervised window.
+    fn teacher_sample(&mut self, it: u64) -> TeacherSample {
+        let h = &self.cfg.hop;
+        let n = self.model.len();
+        let m = h.teacher_samples.min(n);
+        let rng = &mut self.state.rng;
+        let mut picks: Vec<usize> = (0..n).collect();
+        for i in 0..m {
+            let j = i + rng.below(n - i);
+            picks.swap(i, j);
+        }
+        picks.truncate(m);
+        let (t0, t1) = self.state.time_range;
+        let hi = self.schedule.window_end(it).clamp(t0, t1);
+        let span = (h.teacher_span * (t1 - t0)).min(hi - t0);
+        let a = t0 + rng.uniform(0.0, 1.0) * (hi - t0 - span);
+        TeacherSample {
+            window: (a, a + span),
+            indices: picks,
+            weight: h.teacher,
         }
     }
 
@@ -409,7 +446,7 @@ impl Trainer {
                 l1: losses.l1,
                 psnr: evogs_splat::metrics::psnr_from_mse(losses.mse),
                 ssim: losses.ssim,
-                regularizers: losses.planes + losses.coherence + losses.anchor,
+                regularizers: losses.planes + losses.coherence + losses.anchor + losses.teacher,
                 gaussians: self.model.len(),
                 lr_position: lr.position,
             });

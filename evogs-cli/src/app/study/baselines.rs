@@ -81,7 +81,7 @@ pub(super) fn baselines(
         let loaded = checkpoint::load_model(&RunFolder::new(&run.args.out).checkpoint())
             .map_err(|e| at(e.to_string()))?;
         let mut model = loaded.model;
-        model.field.set_par(Par::best());
+        model.set_par(Par::best());
         let p = protocols
             .iter()
             .position(|&q| q == run.protocol)

@@ -139,7 +139,7 @@ fn execute_here(
     let loaded =
         checkpoint::load_model(&folder.checkpoint()).map_err(|e| at(CommandError::new(e)))?;
     let mut model = loaded.model;
-    model.field.set_par(Par::best());
+    model.set_par(Par::best());
     let mut metrics = Vec::with_capacity(sets.len());
     for set in sets {
         let views = set.views(ds);

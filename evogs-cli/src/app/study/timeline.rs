@@ -45,7 +45,7 @@ fn load(folder: &Path) -> Result<Model<f32>, CommandError> {
     let l =
         checkpoint::load_model(&RunFolder::new(folder).checkpoint()).map_err(CommandError::new)?;
     let mut model = l.model;
-    model.field.set_par(Par::best());
+    model.set_par(Par::best());
     Ok(model)
 }
 

@@ -1,18 +1,19 @@
 //! evogs-cli: the neural field's VJP, the model backward (velocity: ODE discrete adjoint
 //! into anchors, canonical Gaussians and field; deformation: the displacement VJP), and one
 //! full training step `loss(render(integrate(field)))` per parameter group, on the scene of
-//! [`super::scene`].
+//! [`super::scene`]; with continuous waypoints the hop (velocity adjoint into the waypoint
+//! displacement), the teacher loss and the whole step.
 //!
 //! Entries are sampled ([`SAMPLES`] per group, all of a smaller group); a group whose
 //! analytic gradient is identically zero fails (the check could not see anything).
 
 use super::scene::{
-    GradScene, ParamGroup, batch_step_loss_and_grad, central_difference, grad_scene, param_groups,
-    sample_entries, second_view,
+    GradScene, ParamGroup, batch_step_loss_and_grad, central_difference, continuous_grad_scene,
+    grad_scene, param_groups, sample_entries, second_view, teacher_sample,
 };
 use super::{GradRow, check_fn, uniform};
 use core::cell::RefCell;
-use evogs::model::{Model, ModelGrad, Motion};
+use evogs::model::{HopRender, HopStart, Model, ModelGrad, Motion};
 use evogs::train::step::{StepLosses, ViewData};
 use evogs_math::diff::{GradCheck, GradReport};
 use evogs_math::rng::SplitMix64;
@@ -129,6 +130,117 @@ fn model_backward_row(motion: Motion, seed: u64, samples: usize) -> GradRow {
     )
 }
 
+/// The model backward with continuous waypoints at times before the window (from its
+/// start), inside it (hops from both sides, near either end) and after it (from its end), so
+/// that every path of [`Model::splats_at`] is differentiated.
+#[must_use]
+pub fn continuous_backward_row(render: HopRender, seed: u64, samples: usize) -> GradRow {
+    let GradScene { mut model, .. } = continuous_grad_scene(render, HopStart::Before, seed);
+    let times = [-0.15, 0.1, 0.45, 0.95, 1.25];
+    let mut rng = SplitMix64::new(seed ^ 0x5eed);
+    let mut st = None;
+    let mut out = Splats::default();
+    let mut grad = model.zero_grad();
+    let mut ws = Vec::new();
+    for &t in &times {
+        let tape = model.splats_at(t, &mut st, &mut out);
+        let w = uniform(&mut rng, out.flat_len(), -1.0, 1.0);
+        let mut d = out.zeros_like();
+        d.read_flat(&w);
+        model.backward_at(&tape, &mut st, &d, &mut grad);
+        ws.push(w);
+    }
+    let (reports, nonzero) = groups(&mut model, &grad, samples, &mut rng, &mut |m| {
+        linear_loss(m, &times, &ws)
+    })
+    .into_iter()
+    .fold((Vec::new(), true), |(mut r, nz), (_, rep, z)| {
+        r.push(rep);
+        (r, nz && z)
+    });
+    with_nonzero(
+        GradRow::from_reports(
+            &format!(
+                "cli: continuous waypoints ({}) model backward (all groups)",
+                render_name(render)
+            ),
+            &reports,
+            &[],
+        ),
+        nonzero,
+    )
+}
+
+/// The teacher loss alone against central differences in the velocity field's parameters
+/// (the waypoint states are held fixed, so its gradient there and in the Gaussians is zero).
+#[must_use]
+pub fn teacher_row(seed: u64, samples: usize) -> GradRow {
+    let GradScene { mut model, .. } = continuous_grad_scene(HopRender::Hop, HopStart::Before, seed);
+    let teacher = teacher_sample();
+    let mut loss = |m: &mut Model<f64>| {
+        let mut g = m.zero_grad();
+        m.teacher_loss(teacher.window, &teacher.indices, teacher.weight, &mut g)
+    };
+    let mut grad = model.zero_grad();
+    let value = model.teacher_loss(teacher.window, &teacher.indices, teacher.weight, &mut grad);
+    let held_fixed = grad.waypoint_field.iter().all(|&v| v == 0.0)
+        && grad.canonical.means.iter().all(|v| v.norm_squared() == 0.0);
+    let mut rng = SplitMix64::new(seed ^ 0x7eac);
+    let field = param_groups(&model)
+        .into_iter()
+        .find(|g| g.name == "field parameters")
+        .expect("a field group");
+    let picks = sample_entries(field.len, samples, &mut rng);
+    let analytic: Vec<f64> = picks.iter().map(|&i| (field.read)(&grad, i)).collect();
+    let numeric: Vec<f64> = picks
+        .iter()
+        .map(|&i| central_difference(&mut model, &field, i, &mut loss))
+        .collect();
+    let nonzero = value > 0.0 && analytic.iter().any(|v| v.abs() > 1e-9);
+    with_nonzero(
+        GradRow::from_reports(
+            "cli: teacher loss (velocity field)",
+            &[MODEL_TOL.check(&analytic, &numeric)],
+            &[],
+        ),
+        nonzero && held_fixed,
+    )
+}
+
+/// One training step with continuous waypoints (photometric and both fields' plane
+/// regularisers; the teacher is checked by [`teacher_row`]) per parameter group, the view
+/// hopping from `side`.
+#[must_use]
+pub fn continuous_step_rows(
+    render: HopRender,
+    side: HopStart,
+    seed: u64,
+    samples: usize,
+) -> (StepLosses, Vec<GradRow>) {
+    let label = format!(
+        "continuous waypoints, {}, hop {}",
+        render_name(render),
+        match side {
+            HopStart::Before => "from before",
+            HopStart::After => "from after",
+        }
+    );
+    step_rows(
+        continuous_grad_scene(render, side, seed),
+        None,
+        &label,
+        seed,
+        samples,
+    )
+}
+
+fn render_name(render: HopRender) -> &'static str {
+    match render {
+        HopRender::Hop => "render the hop",
+        HopRender::Direct => "render the waypoint",
+    }
+}
+
 fn name(motion: Motion) -> &'static str {
     match motion {
         Motion::Velocity => "velocity",
@@ -222,5 +334,10 @@ pub(super) fn rows(samples: usize) -> Vec<GradRow> {
     rows.extend(training_step_rows(Motion::Velocity, 3, samples).1);
     rows.extend(training_step_rows(Motion::Deformation, 5, samples).1);
     rows.extend(batch_training_step_rows(11, samples).1);
+    rows.push(continuous_backward_row(HopRender::Hop, 13, samples));
+    rows.push(continuous_backward_row(HopRender::Direct, 17, samples));
+    rows.push(teacher_row(19, samples));
+    rows.extend(continuous_step_rows(HopRender::Hop, HopStart::After, 23, samples).1);
+    rows.extend(continuous_step_rows(HopRender::Direct, HopStart::Before, 29, samples).1);
     rows
 }

@@ -9,8 +9,12 @@
 
 use evogs::field::regularize::PlaneRegWeights;
 use evogs::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
-use evogs::model::{Model, ModelGrad, Motion, Waypoints, render_options};
-use evogs::train::step::{StepLosses, StepSettings, StepWorkspace, ViewData, batch_loss_and_grad};
+use evogs::model::{
+    HopRender, HopSettings, HopStart, Model, ModelGrad, Motion, Waypoints, render_options,
+};
+use evogs::train::step::{
+    StepLosses, StepSettings, StepWorkspace, TeacherSample, ViewData, batch_loss_and_grad,
+};
 use evogs_math::activation::logit;
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Par, Quat, Vec3};
@@ -145,6 +149,61 @@ fn build(motion: Motion, seed: u64) -> GradScene {
         lambda_anchor: 0.7,
         anchor_segment: Some(0),
         coherence_points,
+        hop_start: HopStart::Before,
+        teacher: None,
+    };
+    GradScene {
+        model,
+        view,
+        settings,
+    }
+}
+
+/// The scene with continuous waypoints in velocity motion: a waypoint field of the same
+/// shape (perturbed like the velocity field), window `[0, 1]`, hops of 0.2 in two steps of
+/// 0.1 rendering `render`; the view at `t = 0.7` hops from the side `side` (0.5 or 0.9).
+/// The settings have no teacher loss: it holds the waypoint states fixed, a stop-gradient
+/// that central differences of the whole step cannot see, so it is checked on its own
+/// ([`teacher_sample`]).
+///
+/// # Panics
+/// Never for the built-in camera.
+#[must_use]
+pub fn continuous_grad_scene(render: HopRender, side: HopStart, seed: u64) -> GradScene {
+    let mut rng = SplitMix64::new(seed);
+    let splats = random_splats(&mut rng);
+    let velocity = field(&mut rng, seed);
+    let waypoint = field(&mut rng, seed ^ 0x0a1f);
+    let mut model = Model::new(
+        splats,
+        velocity,
+        Motion::Velocity,
+        Waypoints::Continuous,
+        Method::Rk4,
+        0.1,
+        vec![0.0],
+    );
+    model.waypoint_field = Some(waypoint);
+    model.hop = HopSettings {
+        window: (0.0, 1.0),
+        length: 0.2,
+        render,
+    };
+    model.dynamics_active = true;
+    let view = random_view(Vec3::new(0.3, -0.2, 2.5), 0.7, &mut rng);
+    let settings = StepSettings {
+        lambda_ssim: 0.2,
+        plane_reg: PlaneRegWeights {
+            plane_tv: 1e-2,
+            time_smoothness: 1e-2,
+            l1_time: 1e-3,
+        },
+        lambda_coherence: 0.0,
+        lambda_anchor: 0.0,
+        anchor_segment: None,
+        coherence_points: Vec::new(),
+        hop_start: side,
+        teacher: None,
     };
     GradScene {
         model,
@@ -241,6 +300,16 @@ fn quat_entry(q: &mut Quat<f64>, k: usize) -> &mut f64 {
     }
 }
 
+/// The teacher loss of the continuous-waypoint checks: over `[0.2, 0.6]`, four Gaussians.
+#[must_use]
+pub fn teacher_sample() -> TeacherSample {
+    TeacherSample {
+        window: (0.2, 0.6),
+        indices: vec![0, 3, 4, 8],
+        weight: 0.6,
+    }
+}
+
 /// Every trainable array of `model` (anchor 1 only with velocity motion and anchors).
 #[must_use]
 pub fn param_groups(model: &Model<f64>) -> Vec<ParamGroup> {
@@ -306,6 +375,20 @@ pub fn param_groups(model: &Model<f64>) -> Vec<ParamGroup> {
         get: |m, i| &mut m.field.params_mut()[i],
         read: |g, i| g.field[i],
     });
+    if let Some(f) = &model.waypoint_field {
+        g.push(ParamGroup {
+            name: "waypoint field parameters",
+            len: f.params().len(),
+            get: |m, i| {
+                &mut m
+                    .waypoint_field
+                    .as_mut()
+                    .expect("a waypoint field")
+                    .params_mut()[i]
+            },
+            read: |g, i| g.waypoint_field[i],
+        });
+    }
     g
 }
 

@@ -1,0 +1,112 @@
+//! The displacement of the canonical Gaussians by a field read at one time, and its VJP:
+//! `p = p₀ + Δp`, `R = Exp(Δω)·R̂₀`, `s = s₀ + Δs` with `[Δp, Δω, Δs] = field(p₀, t)`.
+//!
+//! The deformation motion (4DGS) renders this state; continuous waypoints
+//! ([`Waypoints::Continuous`](super::Waypoints::Continuous)) start a hop of the velocity
+//! field from it. Both use these two functions with their own field.
+
+use super::{StateMut, StateRef};
+use crate::field::{Batch, BatchVjp, FieldRecord, Gemm, NeuralField};
+use evogs_math::Vec3;
+use evogs_math::activation::normalize_quat_vjp;
+use evogs_math::update::{exp_update_left, exp_update_left_vjp};
+use evogs_splat::Splats;
+
+/// Network outputs per Gaussian: `[Δp, Δω, Δs]`.
+pub const OUTPUTS: usize = 9;
+
+/// The canonical positions, flat (`3N`).
+#[must_use]
+pub fn flat_positions<T: Gemm>(canonical: &Splats<T>) -> Vec<T> {
+    canonical.means.iter().flat_map(|v| v.to_array()).collect()
+}
+
+/// Writes the canonical Gaussians displaced by `field` at `t` into `out`'s positions,
+/// rotations and log-scales (opacity and colour are left as they are) and returns the
+/// network outputs (`N × 9`, for [`displace_vjp`]); the field's activations go to `record`.
+pub fn displace<T: Gemm>(
+    field: &mut NeuralField<T>,
+    record: &mut FieldRecord<T>,
+    canonical: &Splats<T>,
+    t: T,
+    out: &mut Splats<T>,
+) -> Vec<T> {
+    let n = canonical.len();
+    let pos = flat_positions(canonical);
+    let mut net = vec![T::ZERO; n * OUTPUTS];
+    let at = Batch {
+        t,
+        positions: &pos,
+        stride: 3,
+        n,
+    };
+    field.eval_batch(&at, &mut net, Some(record));
+    for i in 0..n {
+        let o = &net[i * OUTPUTS..];
+        out.means[i] = canonical.means[i] + Vec3::from_slice(o);
+        out.quats[i] = exp_update_left(
+            canonical.quats[i].normalize(),
+            Vec3::from_slice(&o[3..]),
+            T::ONE,
+        );
+        out.log_scales[i] = canonical.log_scales[i] + Vec3::from_slice(&o[6..]);
+    }
+    net
+}
+
+/// The VJP of [`displace`]: for the cotangent `d` of the displaced positions, log-scales
+/// and rotations (ambient, of the unit quaternion), **adds** the gradients of the canonical
+/// positions, log-scales and raw quaternions into `grad` and of the field's parameters into
+/// `d_params`. `record` is the forward pass's record when it is still current (`None`
+/// evaluates the field again).
+#[allow(clippy::too_many_arguments)]
+pub fn displace_vjp<T: Gemm>(
+    field: &mut NeuralField<T>,
+    record: Option<&FieldRecord<T>>,
+    canonical: &Splats<T>,
+    t: T,
+    net: &[T],
+    d: StateRef<'_, T>,
+    grad: StateMut<'_, T>,
+    d_params: &mut [T],
+) {
+    let (d_means, d_log_scales, d_quats) = d;
+    let (g_means, g_log_scales, g_quats) = grad;
+    let n = canonical.len();
+    let mut d_net = vec![T::ZERO; n * OUTPUTS];
+    for i in 0..n {
+        let q0 = canonical.quats[i];
+        let o = &net[i * OUTPUTS..];
+        let g = exp_update_left_vjp(
+            q0.normalize(),
+            Vec3::from_slice(&o[3..]),
+            T::ONE,
+            d_quats[i],
+        );
+        let dn = &mut d_net[i * OUTPUTS..(i + 1) * OUTPUTS];
+        d_means[i].write_to(dn);
+        g.omega.write_to(&mut dn[3..]);
+        d_log_scales[i].write_to(&mut dn[6..]);
+        g_means[i] += d_means[i];
+        g_log_scales[i] += d_log_scales[i];
+        g_quats[i] = g_quats[i] + normalize_quat_vjp(q0, g.q);
+    }
+    let pos = flat_positions(canonical);
+    let mut d_pos = vec![T::ZERO; n * 3];
+    field.vjp_batch(BatchVjp {
+        at: Batch {
+            t,
+            positions: &pos,
+            stride: 3,
+            n,
+        },
+        record,
+        d_out: &d_net,
+        d_positions: &mut d_pos,
+        d_stride: 3,
+        d_params,
+    });
+    for i in 0..n {
+        g_means[i] += Vec3::from_slice(&d_pos[i * 3..]);
+    }
+}
