@@ -412,21 +412,47 @@ mod tests {
         let near = |a: f64, b: f64| (a - b).abs() < 1e-12;
         assert!(near(h.start(0.4, HopStart::Before), 0.3), "one hop before");
         assert!(near(h.start(0.4, HopStart::After), 0.5), "one hop after");
-        assert!(near(h.start(0.05, HopStart::Before), 0.15), "before leaves: after");
-        assert!(near(h.start(0.7, HopStart::After), 0.6), "after leaves: before");
-        assert_eq!(h.start(1.2, HopStart::Before), 0.75, "future: the window's end");
+        assert!(
+            near(h.start(0.05, HopStart::Before), 0.15),
+            "before leaves: after"
+        );
+        assert!(
+            near(h.start(0.7, HopStart::After), 0.6),
+            "after leaves: before"
+        );
+        assert_eq!(
+            h.start(1.2, HopStart::Before),
+            0.75,
+            "future: the window's end"
+        );
         assert_eq!(h.start(1.2, HopStart::After), 0.75, "either side");
-        assert_eq!(h.start(-0.3, HopStart::After), 0.0, "past: the window's start");
+        assert_eq!(
+            h.start(-0.3, HopStart::After),
+            0.0,
+            "past: the window's start"
+        );
         let short = HopSettings {
             window: (0.0, 0.05),
             ..h
         };
-        assert_eq!(short.start(0.02, HopStart::Before), 0.0, "clamped when both leave");
+        assert_eq!(
+            short.start(0.02, HopStart::Before),
+            0.0,
+            "clamped when both leave"
+        );
         let direct = HopSettings {
             render: HopRender::Direct,
             ..h
         };
-        assert_eq!(direct.start(0.4, HopStart::Before), 0.4, "direct: the waypoint");
-        assert_eq!(direct.start(0.9, HopStart::Before), 0.75, "direct: future still hops");
+        assert_eq!(
+            direct.start(0.4, HopStart::Before),
+            0.4,
+            "direct: the waypoint"
+        );
+        assert_eq!(
+            direct.start(0.9, HopStart::Before),
+            0.75,
+            "direct: future still hops"
+        );
     }
 }

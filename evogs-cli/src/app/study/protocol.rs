@@ -5,7 +5,7 @@
 //! |---|---|---|
 //! | `full` | every training view | the test split |
 //! | `sparse:K` | the training views at every K-th distinct time | the test split; the training-camera views at the dropped times |
-//! | `future:TAU` | training views with `t ≤ TAU` | test `t ≤ TAU` (interpolation); test `t > TAU` (extrapolation); the `future` split if the dataset has one |
+//! | `future:TAU` | training views with `t ≤ TAU` | test `t ≤ TAU` (interpolation); test `t > TAU` (extrapolation), also in two bins split at `TAU + 0.4·(1 − TAU)`; the `future` split if the dataset has one |
 //! | `backward:TAU` | training views with `t ≥ TAU` | test `t ≥ TAU` (interpolation); test `t < TAU` (extrapolation); the `future` split if any |
 
 use crate::app::error::{CommandError, CommandResult};
@@ -150,6 +150,19 @@ impl StudyProtocol {
                     SplitName::Test,
                     beyond,
                 ));
+                // The extrapolated stretch in two bins, the first 40 % of it (0.75 → 0.85)
+                // and the rest: how the error grows with the distance from the window.
+                let mid = round_time(tau + 0.4 * (1.0 - tau));
+                sets.push(HeldOutSet::new(
+                    &format!("test t in ({tau}, {mid}]"),
+                    SplitName::Test,
+                    test(&|t| t > tau + TIME_EPS && t <= mid + TIME_EPS),
+                ));
+                sets.push(HeldOutSet::new(
+                    &format!("test t in ({mid}, 1]"),
+                    SplitName::Test,
+                    test(&|t| t > mid + TIME_EPS),
+                ));
             }
             Self::Backward(tau) => {
                 let before = test(&|t| t < tau - TIME_EPS);
@@ -182,6 +195,12 @@ impl StudyProtocol {
         sets.retain(|s| !s.indices.is_empty());
         Ok(sets)
     }
+}
+
+/// `t` rounded to six decimals (a bin edge that prints as it was meant: 0.85, not
+/// 0.8500000000000001).
+fn round_time(t: f64) -> f64 {
+    (t * 1e6).round() / 1e6
 }
 
 fn time_span(views: &[View]) -> String {
@@ -397,16 +416,24 @@ mod tests {
         let names: Vec<&str> = sets.iter().map(|s| s.name.as_str()).collect();
         assert_eq!(
             names,
-            ["test t <= 0.75", "test t > 0.75", "future split"],
+            [
+                "test t <= 0.75",
+                "test t > 0.75",
+                "test t in (0.75, 0.85]",
+                "test t in (0.85, 1]",
+                "future split"
+            ],
             "rows"
         );
         assert_eq!(sets[0].indices, vec![0, 1], "interpolation");
         assert_eq!(sets[1].indices, vec![2, 3], "extrapolation");
-        assert_eq!(sets[2].indices, vec![0, 1], "future split");
+        assert_eq!(sets[2].indices, vec![2], "first bin");
+        assert_eq!(sets[3].indices, vec![3], "second bin");
+        assert_eq!(sets[4].indices, vec![0, 1], "future split");
         let sets = StudyProtocol::Future(0.75)
             .held_out_sets(&dataset(&[]))
             .expect("no future split");
-        assert_eq!(sets.len(), 2, "no future split row without one");
+        assert_eq!(sets.len(), 4, "no future split row without one");
     }
 
     #[test]

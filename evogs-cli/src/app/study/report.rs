@@ -53,6 +53,10 @@ pub struct RunRecord {
     /// datasets that have one).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trajectory: Option<TrajectoryError>,
+    /// Continuous waypoints: the mean share of the waypoint field's displacement over a hop
+    /// that the velocity field carries (`Model::hop_share`, eight times across the window).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hop_share: Option<f64>,
 }
 
 /// One baseline's metrics in a [`BaselineRecord`].
@@ -665,6 +669,25 @@ impl StudySummary {
                 );
             }
         }
+        let shares: Vec<&RunRecord> = self.runs.iter().filter(|r| r.hop_share.is_some()).collect();
+        if !shares.is_empty() {
+            s.push_str(
+                "\nContinuous waypoints: the share of the waypoint field's displacement over a \
+                 hop that the velocity field carries (1: all of it; mean of eight times across \
+                 the window).\n\n",
+            );
+            s.push_str("| protocol | motion | seed | hop share |\n|---|---|---|---|\n");
+            for r in shares {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {:.3} |",
+                    r.protocol,
+                    r.motion.as_str(),
+                    r.seed,
+                    r.hop_share.unwrap_or(f64::NAN)
+                );
+            }
+        }
         if !self.trajectories.is_empty() {
             s.push_str(
                 "\nTrajectory error at t = 1.3 of the Gaussians on moving bodies (motion.json): \
@@ -735,6 +758,7 @@ mod tests {
                 ssim: 0.9,
             }],
             trajectory: None,
+            hop_share: None,
         }
     }
 

@@ -168,6 +168,7 @@ fn execute_here(
         }
         _ => None,
     };
+    let hop_share = hop_share(&mut model);
     let record = RunRecord {
         protocol: run.protocol,
         motion: run.motion,
@@ -181,6 +182,7 @@ fn execute_here(
         threads,
         sets: metrics,
         trajectory,
+        hop_share,
     };
     let json = serde_json::to_string_pretty(&record).map_err(|e| {
         at(CommandError::new(format!(
@@ -189,4 +191,17 @@ fn execute_here(
     })?;
     write_atomic(&run.record_path(), json.as_bytes()).map_err(at)?;
     Ok(record)
+}
+
+/// The mean [`Model::hop_share`](evogs::model::Model::hop_share) at eight times spread over
+/// the window (continuous waypoints; `None` otherwise).
+fn hop_share(model: &mut evogs::model::Model<f32>) -> Option<f64> {
+    let (a, b) = model.hop.window;
+    let shares: Vec<f64> = (0..8)
+        .filter_map(|k| {
+            let t = a + (f64::from(k) + 0.5) / 8.0 * (b - a);
+            model.hop_share(t, evogs::model::HopStart::Before)
+        })
+        .collect();
+    (!shares.is_empty()).then(|| shares.iter().sum::<f64>() / shares.len() as f64)
 }
