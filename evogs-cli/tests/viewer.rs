@@ -3,8 +3,11 @@
 //! training range and one far outside it, and each screenshot is compared with the CPU
 //! rasterizer's image of the same camera and time (`evogs render`'s `render_frame`). A page
 //! error, a console error or a failed request fails the test; a time the model refuses must
-//! show `Model::check_time`'s text in the page. Skipped, with a message, when no Chromium is
-//! installed (`.ci/run` installs Debian's `chromium`).
+//! show `Model::check_time`'s text in the page. A static export (`--export`), served by a
+//! plain file server, must show and name the listed frame nearest the asked time, match the
+//! rasterizer at that frame's time, and refuse a frame file that holds another time.
+//! Skipped, with a message, when no Chromium is installed (`.ci/run` installs Debian's
+//! `chromium`).
 
 #![allow(
     clippy::cast_possible_truncation,
@@ -18,6 +21,7 @@ use evogs::run::checkpoint;
 use evogs_cli::app::Silent;
 use evogs_cli::app::paths::{RunFolder, shipped_scene};
 use evogs_cli::app::view::Viewer;
+use evogs_cli::app::view::assets::content_type;
 use evogs_cli::app::view::frames::FrameSource;
 use evogs_cli::app::view::scene::SceneInfo;
 use evogs_cli::app::view::wire::{FRAME_BYTES_PER_GAUSSIAN, HEADER_BYTES};
@@ -28,7 +32,10 @@ use std::io::{BufRead as _, BufReader, Read as _, Write as _};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 /// Screenshot size (the dataset's cameras are square).
@@ -296,6 +303,70 @@ impl Devtools {
     }
 }
 
+/// A static file server on a free port of 127.0.0.1, answering until dropped: what any web
+/// server does with an exported folder (the file's type by its extension; `no-store`, so a
+/// changed file is read again).
+struct FolderServer {
+    url: String,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Drop for FolderServer {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Serves the files under `root` (`/` is `index.html`; the query is ignored).
+fn serve_folder(root: &Path) -> FolderServer {
+    let server = tiny_http::Server::http("127.0.0.1:0").expect("bind a free port");
+    let port = server.server_addr().to_ip().expect("an IP address").port();
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let root = root.to_path_buf();
+    let thread = std::thread::spawn(move || {
+        while !flag.load(Ordering::Relaxed) {
+            let Ok(Some(req)) = server.recv_timeout(Duration::from_millis(50)) else {
+                continue;
+            };
+            let url = req.url().to_string();
+            let path = url
+                .split('?')
+                .next()
+                .unwrap_or_default()
+                .trim_start_matches('/');
+            let path = if path.is_empty() { "index.html" } else { path };
+            let file = (!path.split('/').any(|p| p == ".."))
+                .then(|| std::fs::read(root.join(path)).ok())
+                .flatten();
+            let resp = match file {
+                Some(body) => {
+                    let kind = tiny_http::Header::from_bytes("Content-Type", content_type(path))
+                        .expect("header");
+                    // Every load reads the files as they are now.
+                    let fresh =
+                        tiny_http::Header::from_bytes("Cache-Control", "no-store").expect("header");
+                    tiny_http::Response::from_data(body)
+                        .with_header(kind)
+                        .with_header(fresh)
+                }
+                None => tiny_http::Response::from_data(b"not found".to_vec())
+                    .with_status_code(tiny_http::StatusCode(404)),
+            };
+            let _ = req.respond(resp);
+        }
+    });
+    FolderServer {
+        url: format!("http://127.0.0.1:{port}/"),
+        stop,
+        thread: Some(thread),
+    }
+}
+
 fn save_image(img: &Image<f32>, path: &Path) {
     let bytes: Vec<u8> = img
         .data()
@@ -517,6 +588,95 @@ fn the_page_shows_the_run_at_any_time_as_the_rasterizer_does() {
     assert!(
         problems.iter().all(|p| p.contains("422")),
         "only the refused frame fails: {problems:?}"
+    );
+    drop((dt, browser, server));
+    if std::env::var_os("EVOGS_KEEP_VIEWER_TEST").is_none() {
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
+
+#[test]
+fn the_exported_page_shows_the_nearest_listed_frame_as_the_rasterizer_does() {
+    let Some(chromium) = find_chromium() else {
+        eprintln!(
+            "exported viewer browser test skipped: no Chromium found (install Debian's \
+             `chromium`, or set EVOGS_CHROMIUM)"
+        );
+        return;
+    };
+    let dir = common::scratch("viewer-static");
+    let run = common::tiny_run(&dir);
+    let site = dir.join("site");
+    let status = Command::new(env!("CARGO_BIN_EXE_evogs"))
+        .args(["view", "--run"])
+        .arg(&run)
+        .arg("--export")
+        .arg(&site)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .expect("run evogs view --export");
+    assert!(status.success(), "evogs view --export: {status}");
+    let scene: SceneInfo =
+        serde_json::from_slice(&std::fs::read(site.join("scene.json")).expect("scene.json"))
+            .expect("scene.json parses");
+    let frames = scene.frames.expect("an export lists its frames");
+    let cam0 = scene.cameras[0].clone();
+
+    // The page is asked for a time between two listed frames: it shows the nearest one and
+    // names that frame's time, not the asked one.
+    let asked = 0.3;
+    let (k, &t) = frames
+        .times
+        .iter()
+        .enumerate()
+        .min_by(|x, y| (x.1 - asked).abs().total_cmp(&(y.1 - asked).abs()))
+        .expect("listed frames");
+    assert!(
+        format!("{t:.3}") != format!("{asked:.3}"),
+        "{asked} must fall between listed frames ({t})"
+    );
+    let mut model = checkpoint::load_model(&RunFolder::new(&run).checkpoint())
+        .expect("model")
+        .model;
+    let mut scratch = Splats::default();
+    let cam: PinholeCamera<f32> =
+        PinholeCamera::from_dnerf(cam0.c2w, cam0.fov_x, SIZE, SIZE).expect("camera");
+    let reference = render_frame(&mut model, &cam, t, [1.0; 3], Par::best(), &mut scratch);
+    save_image(&reference, &dir.join(format!("reference-{t}.png")));
+
+    let server = serve_folder(&site);
+    let (browser, mut dt) = start_chromium(&chromium, &dir.join("profile"));
+    let page = format!("{}?t={asked}&camera=0&ui=0", server.url);
+    let state = dt.open(&page);
+    let problems = dt.problems();
+    assert_eq!(state, "ready", "{page}: {problems:?}");
+    assert!(problems.is_empty(), "{page}: {problems:?}");
+    let title = dt.eval("document.title");
+    assert_eq!(
+        title.as_str(),
+        Some(format!("evogs view: ready t={t:.3}").as_str()),
+        "the page names the time of the frame it shows"
+    );
+    let shot = dt.screenshot();
+    shot.save(dir.join(format!("shot-{t}.png"))).expect("save");
+    let p = psnr(&shot, &reference);
+    eprintln!(
+        "exported page asked for t = {asked}, frame at t = {t}: PSNR against the rasterizer {p:.2} dB"
+    );
+    assert!(p >= PSNR_FLOOR, "t = {t}: {p:.2} dB < {PSNR_FLOOR} dB");
+
+    // A listed file that holds another time (a stale or mismatched export) is an error, not
+    // a frame passed off as the listed one.
+    let last = frames.files.last().expect("listed frames");
+    std::fs::copy(site.join(last), site.join(&frames.files[k])).expect("replace a frame");
+    let state = dt.open(&page);
+    assert_eq!(state, "error", "{page} with a mismatched frame file");
+    let shown = dt.eval("document.getElementById('error').textContent");
+    let shown = shown.as_str().unwrap_or_default();
+    assert!(
+        shown.starts_with(&format!("{}: holds the frame at t = ", frames.files[k])),
+        "{shown}"
     );
     drop((dt, browser, server));
     if std::env::var_os("EVOGS_KEEP_VIEWER_TEST").is_none() {

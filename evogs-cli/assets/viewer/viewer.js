@@ -154,17 +154,26 @@ async function main() {
   });
   sel.addEventListener("change", () => useCamera(Number(sel.value)));
 
-  /** The frame file nearest `t` in a static export. */
-  function nearestFrame(t) {
+  /**
+   * The frame shown for the wanted time `t`, as { t: its time, url }: from a server the
+   * frame at `t` itself; in a static export the listed frame nearest `t`, so the page shows
+   * and names that frame's time, not the wanted one.
+   */
+  function frameFor(t) {
+    if (live) return { t, url: `frame?t=${encodeURIComponent(t)}` };
     const ts = scene.frames.times;
+    if (ts.length === 0) throw new Error("scene.json lists no frames");
     let best = 0;
     for (let i = 1; i < ts.length; i++) if (Math.abs(ts[i] - t) < Math.abs(ts[best] - t)) best = i;
-    return scene.frames.files[best];
+    return { t: ts[best], url: scene.frames.files[best] };
   }
 
-  function applyFrame(buf) {
+  /** Puts the frame `f` (from `frameFor`), read into `buf`, on screen. */
+  function applyFrame(buf, f) {
     const h = header(buf, "EVGF");
-    if (h.n !== n) throw new Error("frame: wrong Gaussian count");
+    if (h.n !== n) throw new Error(`${f.url}: wrong Gaussian count`);
+    // A frame of another time (a stale or mismatched file) must not pass for this one.
+    if (h.t !== f.t) throw new Error(`${f.url}: holds the frame at t = ${h.t}, not at t = ${f.t}`);
     const pos = new Float32Array(buf, 16, 3 * n);
     const rot = new Float32Array(buf, 16 + 12 * n, 4 * n);
     const scl = new Float32Array(buf, 16 + 28 * n, 3 * n);
@@ -185,11 +194,10 @@ async function main() {
     packed.needsUpdate = true;
     mesh.numSplats = n;
     mesh.updateVersion();
-    return h.t;
   }
 
-  let wanted = null; // the time to show next
-  let shown = null; // the time of the splats on screen
+  let wanted = null; // the time asked for last (slider, go to, play)
+  let shown = null; // the time of the frame on screen (in an export, the nearest listed one)
   let loading = false;
   let settle = 0; // frames rendered since the last update
   let readyReported = false;
@@ -211,30 +219,29 @@ async function main() {
 
   function request(t) {
     wanted = t;
-    showTime(t);
+    showTime(frameFor(t).t);
     if (document.activeElement !== slider) slider.value = String(t);
     pump();
   }
 
   async function pump() {
-    if (loading || wanted === null || wanted === shown) return;
+    if (loading || wanted === null) return;
+    const f = frameFor(wanted);
+    if (f.t === shown) return;
     loading = true;
-    const t = wanted;
     try {
-      const url = live ? `frame?t=${encodeURIComponent(t)}` : nearestFrame(t);
-      const buf = await fetchBytes(url);
-      const ft = applyFrame(buf);
-      shown = t;
+      applyFrame(await fetchBytes(f.url), f);
+      shown = f.t;
       settle = 0;
       clearError();
-      el("status").textContent = live ? `frame at t = ${fmt(ft)}` : `precomputed frame at t = ${fmt(ft)}`;
+      el("status").textContent = `${live ? "frame" : "precomputed frame"} at t = ${fmt(f.t)}`;
     } catch (e) {
-      shown = t;
+      shown = f.t;
       showError(e.message);
     } finally {
       loading = false;
     }
-    if (wanted !== shown) pump();
+    if (frameFor(wanted).t !== shown) pump();
   }
 
   slider.addEventListener("input", () => request(Number(slider.value)));
