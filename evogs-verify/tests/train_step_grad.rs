@@ -5,7 +5,7 @@
 //! teacher loss). The scene and the per-group check live in
 //! `evogs_verify::check::grad` (shared with `evogs check-grad` and the cross-crate tests).
 
-use evogs::model::{HopRender, HopStart, Motion};
+use evogs::model::{HopLaw, HopRender, HopStart, Motion};
 use evogs::train::step::StepLosses;
 use evogs_verify::check::grad::GradRow;
 use evogs_verify::check::grad::model::{
@@ -124,27 +124,34 @@ fn assert_passed(rows: &[GradRow]) {
 /// times before, inside and after the window, rendering the hop or the waypoint state.
 #[test]
 fn continuous_waypoint_backward_matches_central_differences() {
-    assert_passed(&[
-        continuous_backward_row(HopRender::Hop, 13, SAMPLES),
-        continuous_backward_row(HopRender::Direct, 17, SAMPLES),
-    ]);
+    for law in [HopLaw::FirstOrder, HopLaw::SecondOrder] {
+        assert_passed(&[
+            continuous_backward_row(HopRender::Hop, law, 13, SAMPLES),
+            continuous_backward_row(HopRender::Direct, law, 17, SAMPLES),
+        ]);
+    }
 }
 
 /// The teacher loss moves the velocity field only, with the exact gradient.
 #[test]
 fn teacher_loss_gradient_matches_central_differences() {
-    assert_passed(&[teacher_row(19, SAMPLES)]);
+    assert_passed(&[
+        teacher_row(HopLaw::FirstOrder, 19, SAMPLES),
+        teacher_row(HopLaw::SecondOrder, 19, SAMPLES),
+    ]);
 }
 
 /// A whole training step with continuous waypoints (photometric and both fields' plane
 /// regularisers), every parameter group: 5 canonical groups and 2 fields.
 #[test]
 fn continuous_waypoint_step_gradient_matches_central_differences() {
-    for (render, side, seed) in [
-        (HopRender::Hop, HopStart::After, 23),
-        (HopRender::Direct, HopStart::Before, 29),
+    for (render, law, side, seed) in [
+        (HopRender::Hop, HopLaw::FirstOrder, HopStart::After, 23),
+        (HopRender::Direct, HopLaw::FirstOrder, HopStart::Before, 29),
+        (HopRender::Hop, HopLaw::SecondOrder, HopStart::Before, 31),
+        (HopRender::Hop, HopLaw::SecondOrder, HopStart::After, 37),
     ] {
-        let (losses, rows) = continuous_step_rows(render, side, seed, SAMPLES);
+        let (losses, rows) = continuous_step_rows(render, law, side, seed, SAMPLES);
         assert!(losses.planes > 0.0, "every term is active: {losses:?}");
         assert_eq!(rows.len(), 7, "parameter groups checked");
         assert_passed(&rows);
@@ -155,7 +162,7 @@ fn continuous_waypoint_step_gradient_matches_central_differences() {
 /// loss and its gradient (checked on its own above), exactly.
 #[test]
 fn the_teacher_adds_its_own_loss_and_gradient_to_the_step() {
-    let mut scene = continuous_grad_scene(HopRender::Hop, HopStart::After, 23);
+    let mut scene = continuous_grad_scene(HopRender::Hop, HopLaw::SecondOrder, HopStart::After, 23);
     let plain = scene.settings.clone();
     let mut taught = plain.clone();
     let t = teacher_sample();

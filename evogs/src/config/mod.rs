@@ -7,7 +7,7 @@
 
 use crate::data::DataFormat;
 use crate::field::{HexPlaneConfig, NeuralFieldConfig};
-use crate::model::{HopRender, Motion, Waypoints};
+use crate::model::{HopLaw, HopRender, Motion, Waypoints};
 use serde::{Deserialize, Serialize};
 
 mod removed;
@@ -158,6 +158,7 @@ impl TrainConfig {
                 length: 0.05,
                 steps: 1,
                 render: HopRender::Hop,
+                law: HopLaw::FirstOrder,
                 teacher: 0.0,
                 teacher_samples: 2000,
                 teacher_span: 0.25,

@@ -2,7 +2,7 @@
 //! losses, optimiser, densification and schedule (the field's own is beside its code).
 
 use crate::data::DataFormat;
-use crate::model::{HopRender, Motion, Waypoints};
+use crate::model::{HopLaw, HopRender, Motion, Waypoints};
 use evogs_ode::Method;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -276,6 +276,10 @@ pub struct HopConfig {
     /// state; both fields learn from the image) or `direct` (the waypoint state itself; the
     /// velocity field learns from the teacher loss alone).
     pub render: HopRender,
+    /// The law that carries a hop and every frame after the window: `first-order` (the
+    /// field is the velocity) or `second-order` (the field is the acceleration; the
+    /// Gaussians carry velocities from the waypoint field's finite difference).
+    pub law: HopLaw,
     /// Weight of the teacher loss (the velocity field against the waypoint field's
     /// trajectories in 3D, no rendering; 0 disables it).
     pub teacher: f64,

@@ -1,4 +1,5 @@
-//! The neural velocity field: HexPlane encoder + MLP, batched, with exact VJPs.
+//! The neural velocity field: HexPlane encoder + MLP, batched, with exact VJPs, and its
+//! reading as an acceleration field ([`second_order`]).
 
 mod chunk;
 pub mod gemm;
@@ -8,6 +9,7 @@ pub mod mlp;
 pub mod neural;
 pub mod profile;
 pub mod regularize;
+pub mod second_order;
 
 pub use chunk::CHUNK;
 pub use gemm::Gemm;
@@ -15,3 +17,4 @@ pub use hexplane::{HexPlane, HexPlaneConfig, TimeMapping};
 pub use mlp::Mlp;
 pub use neural::{Batch, BatchVjp, FieldRecord, NeuralField, NeuralFieldConfig, gaussian_layout};
 pub use profile::{FieldProfile, FieldTimes};
+pub use second_order::{SECOND_ORDER_STRIDE, SECOND_ORDER_TANGENT, SecondOrderField};

@@ -98,6 +98,7 @@ pub fn build_model(cfg: &TrainConfig, canonical: Splats<f32>, frame: ModelFrame)
         window: frame.window,
         length: cfg.hop.length * (t1 - t0),
         render: cfg.hop.render,
+        law: cfg.hop.law,
     };
     let mut model = Model::new(
         canonical,

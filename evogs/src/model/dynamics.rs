@@ -74,6 +74,9 @@ pub(super) struct FrameRecords<T> {
     pub(super) waypoint_serial: u64,
     /// The record of the last waypoint-field evaluation.
     pub(super) waypoint: FieldRecord<T>,
+    /// The record of the waypoint-field evaluation at the other time of a second-order
+    /// hop's finite difference.
+    pub(super) waypoint_prev: FieldRecord<T>,
 }
 
 impl<T: Gemm> Default for FrameRecords<T> {
@@ -84,6 +87,7 @@ impl<T: Gemm> Default for FrameRecords<T> {
             displacement: FieldRecord::default(),
             waypoint_serial: 0,
             waypoint: FieldRecord::default(),
+            waypoint_prev: FieldRecord::default(),
         }
     }
 }
@@ -92,9 +96,19 @@ impl<T: Gemm> Model<T> {
     /// A stepper for the current number of Gaussians (rebuilt when the count changes).
     pub(super) fn stepper(&mut self, stepper: &mut Option<Stepper<T>>) -> Stepper<T> {
         self.field.set_count(self.len());
+        let layout = self.field.layout();
+        self.stepper_for(layout, stepper)
+    }
+
+    /// The cached stepper if it has `layout`, else a new one.
+    pub(super) fn stepper_for(
+        &self,
+        layout: evogs_ode::StateLayout,
+        stepper: &mut Option<Stepper<T>>,
+    ) -> Stepper<T> {
         match stepper.take() {
-            Some(s) if *s.layout() == self.field.layout() => s,
-            _ => Stepper::new(self.method, self.field.layout()),
+            Some(s) if *s.layout() == layout => s,
+            _ => Stepper::new(self.method, layout),
         }
     }
 

@@ -28,7 +28,7 @@ pub use anchors::{AnchorState, Waypoints, anchor_for_time};
 pub use build::{ModelFrame, build_model};
 use dynamics::FrameRecords;
 pub use dynamics::FrameTape;
-pub use hop::{HopRender, HopSettings, HopStart};
+pub use hop::{HopLaw, HopRender, HopSettings, HopStart};
 pub use render::render_options;
 
 use crate::field::{Gemm, NeuralField};

@@ -13,7 +13,7 @@ use super::scene::{
 };
 use super::{GradRow, check_fn, uniform};
 use core::cell::RefCell;
-use evogs::model::{HopRender, HopStart, Model, ModelGrad, Motion};
+use evogs::model::{HopLaw, HopRender, HopStart, Model, ModelGrad, Motion};
 use evogs::train::step::{StepLosses, ViewData};
 use evogs_math::diff::{GradCheck, GradReport};
 use evogs_math::rng::SplitMix64;
@@ -134,8 +134,13 @@ fn model_backward_row(motion: Motion, seed: u64, samples: usize) -> GradRow {
 /// start), inside it (hops from both sides, near either end) and after it (from its end), so
 /// that every path of [`Model::splats_at`] is differentiated.
 #[must_use]
-pub fn continuous_backward_row(render: HopRender, seed: u64, samples: usize) -> GradRow {
-    let GradScene { mut model, .. } = continuous_grad_scene(render, HopStart::Before, seed);
+pub fn continuous_backward_row(
+    render: HopRender,
+    law: HopLaw,
+    seed: u64,
+    samples: usize,
+) -> GradRow {
+    let GradScene { mut model, .. } = continuous_grad_scene(render, law, HopStart::Before, seed);
     let times = [-0.15, 0.1, 0.45, 0.95, 1.25];
     let mut rng = SplitMix64::new(seed ^ 0x5eed);
     let mut st = None;
@@ -161,8 +166,9 @@ pub fn continuous_backward_row(render: HopRender, seed: u64, samples: usize) -> 
     with_nonzero(
         GradRow::from_reports(
             &format!(
-                "cli: continuous waypoints ({}) model backward (all groups)",
-                render_name(render)
+                "cli: continuous waypoints ({}, {}) model backward (all groups)",
+                render_name(render),
+                law_name(law)
             ),
             &reports,
             &[],
@@ -174,8 +180,9 @@ pub fn continuous_backward_row(render: HopRender, seed: u64, samples: usize) -> 
 /// The teacher loss alone against central differences in the velocity field's parameters
 /// (the waypoint states are held fixed, so its gradient there and in the Gaussians is zero).
 #[must_use]
-pub fn teacher_row(seed: u64, samples: usize) -> GradRow {
-    let GradScene { mut model, .. } = continuous_grad_scene(HopRender::Hop, HopStart::Before, seed);
+pub fn teacher_row(law: HopLaw, seed: u64, samples: usize) -> GradRow {
+    let GradScene { mut model, .. } =
+        continuous_grad_scene(HopRender::Hop, law, HopStart::Before, seed);
     let teacher = teacher_sample();
     let mut loss = |m: &mut Model<f64>| {
         let mut g = m.zero_grad();
@@ -199,7 +206,7 @@ pub fn teacher_row(seed: u64, samples: usize) -> GradRow {
     let nonzero = value > 0.0 && analytic.iter().any(|v| v.abs() > 1e-9);
     with_nonzero(
         GradRow::from_reports(
-            "cli: teacher loss (velocity field)",
+            &format!("cli: teacher loss ({}, the field)", law_name(law)),
             &[MODEL_TOL.check(&analytic, &numeric)],
             &[],
         ),
@@ -213,25 +220,34 @@ pub fn teacher_row(seed: u64, samples: usize) -> GradRow {
 #[must_use]
 pub fn continuous_step_rows(
     render: HopRender,
+    law: HopLaw,
     side: HopStart,
     seed: u64,
     samples: usize,
 ) -> (StepLosses, Vec<GradRow>) {
     let label = format!(
-        "continuous waypoints, {}, hop {}",
+        "continuous waypoints, {}, {}, hop {}",
         render_name(render),
+        law_name(law),
         match side {
             HopStart::Before => "from before",
             HopStart::After => "from after",
         }
     );
     step_rows(
-        continuous_grad_scene(render, side, seed),
+        continuous_grad_scene(render, law, side, seed),
         None,
         &label,
         seed,
         samples,
     )
+}
+
+fn law_name(law: HopLaw) -> &'static str {
+    match law {
+        HopLaw::FirstOrder => "first order",
+        HopLaw::SecondOrder => "second order",
+    }
 }
 
 fn render_name(render: HopRender) -> &'static str {
@@ -334,10 +350,12 @@ pub(super) fn rows(samples: usize) -> Vec<GradRow> {
     rows.extend(training_step_rows(Motion::Velocity, 3, samples).1);
     rows.extend(training_step_rows(Motion::Deformation, 5, samples).1);
     rows.extend(batch_training_step_rows(11, samples).1);
-    rows.push(continuous_backward_row(HopRender::Hop, 13, samples));
-    rows.push(continuous_backward_row(HopRender::Direct, 17, samples));
-    rows.push(teacher_row(19, samples));
-    rows.extend(continuous_step_rows(HopRender::Hop, HopStart::After, 23, samples).1);
-    rows.extend(continuous_step_rows(HopRender::Direct, HopStart::Before, 29, samples).1);
+    for law in [HopLaw::FirstOrder, HopLaw::SecondOrder] {
+        rows.push(continuous_backward_row(HopRender::Hop, law, 13, samples));
+        rows.push(continuous_backward_row(HopRender::Direct, law, 17, samples));
+        rows.push(teacher_row(law, 19, samples));
+        rows.extend(continuous_step_rows(HopRender::Hop, law, HopStart::After, 23, samples).1);
+        rows.extend(continuous_step_rows(HopRender::Direct, law, HopStart::Before, 29, samples).1);
+    }
     rows
 }

@@ -10,7 +10,7 @@
 use evogs::field::regularize::PlaneRegWeights;
 use evogs::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use evogs::model::{
-    HopRender, HopSettings, HopStart, Model, ModelGrad, Motion, Waypoints, render_options,
+    HopLaw, HopRender, HopSettings, HopStart, Model, ModelGrad, Motion, Waypoints, render_options,
 };
 use evogs::train::step::{
     StepLosses, StepSettings, StepWorkspace, TeacherSample, ViewData, batch_loss_and_grad,
@@ -161,7 +161,7 @@ fn build(motion: Motion, seed: u64) -> GradScene {
 
 /// The scene with continuous waypoints in velocity motion: a waypoint field of the same
 /// shape (perturbed like the velocity field), window `[0, 1]`, hops of 0.2 in two steps of
-/// 0.1 rendering `render`; the view at `t = 0.7` hops from the side `side` (0.5 or 0.9).
+/// 0.1 under `law` rendering `render`; the view at `t = 0.7` hops from the side `side` (0.5 or 0.9).
 /// The settings have no teacher loss: it holds the waypoint states fixed, a stop-gradient
 /// that central differences of the whole step cannot see, so it is checked on its own
 /// ([`teacher_sample`]).
@@ -169,7 +169,12 @@ fn build(motion: Motion, seed: u64) -> GradScene {
 /// # Panics
 /// Never for the built-in camera.
 #[must_use]
-pub fn continuous_grad_scene(render: HopRender, side: HopStart, seed: u64) -> GradScene {
+pub fn continuous_grad_scene(
+    render: HopRender,
+    law: HopLaw,
+    side: HopStart,
+    seed: u64,
+) -> GradScene {
     let mut rng = SplitMix64::new(seed);
     let splats = random_splats(&mut rng);
     let velocity = field(&mut rng, seed);
@@ -188,6 +193,7 @@ pub fn continuous_grad_scene(render: HopRender, side: HopStart, seed: u64) -> Gr
         window: (0.0, 1.0),
         length: 0.2,
         render,
+        law,
     };
     model.dynamics_active = true;
     let view = random_view(Vec3::new(0.3, -0.2, 2.5), 0.7, &mut rng);
