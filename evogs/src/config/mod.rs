@@ -160,7 +160,7 @@ impl TrainConfig {
                 render: HopRender::Hop,
                 law: HopLaw::FirstOrder,
                 teacher: 0.0,
-                teacher_samples: 2000,
+                teacher_samples: 500,
                 teacher_span: 0.25,
             },
             field: NeuralFieldConfig {
