@@ -1,7 +1,8 @@
 //! Prediction after the training window, on a scene with known motion: the procedural
 //! `translate` scene (a box sliding at constant velocity over a static floor, `evogs
-//! scenes`), multi-view, trained on `t ≤ 0.75` with continuous waypoints and second-order
-//! hops, must carry the box on past the window. The trajectory error at `t = 1.3` (the
+//! scenes`), multi-view, trained on `t ≤ 0.75` with continuous waypoints and first-order
+//! hops, must carry the box on past the window (it does: 0.49 of the travel left as error,
+//! on 2 threads; holding the state leaves all of it). The trajectory error at `t = 1.3` (the
 //! distance of the model's Gaussians on the box from where the true motion takes them,
 //! relative to the distance the box travels after 0.75) is 1 for a model that holds the
 //! state at the end of the window; the test fails if the model's error regresses past
@@ -39,7 +40,7 @@ fn config() -> TrainConfig {
     cfg.data.split_time = 0.75;
     cfg.dynamics.motion = Motion::Velocity;
     cfg.dynamics.waypoints = Waypoints::Continuous;
-    cfg.hop.law = HopLaw::SecondOrder;
+    cfg.hop.law = HopLaw::FirstOrder;
     cfg.hop.length = 1.0 / 11.0;
     cfg.field.hexplane = HexPlaneConfig {
         channels: 8,
@@ -59,7 +60,7 @@ fn config() -> TrainConfig {
 }
 
 #[test]
-fn second_order_hops_carry_a_sliding_box_past_the_training_window() {
+fn first_order_hops_carry_a_sliding_box_past_the_training_window() {
     let spec = &select(&["translate".to_string()]).expect("a known scene")[0];
     let scene = BuiltScene::new(spec, Spacing::default(), 0);
     let dir = std::env::temp_dir().join(format!("evogs-prediction-{}", std::process::id()));
