@@ -59,7 +59,10 @@ pub fn displace<T: Gemm>(
 /// positions, log-scales and raw quaternions into `grad` and of the field's parameters into
 /// `d_params`. `record` is the forward pass's record when it is still current (`None`
 /// evaluates the field again).
-#[allow(clippy::too_many_arguments)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the field, its record, the state, the time, the outputs, the cotangent and two gradients"
+)]
 pub fn displace_vjp<T: Gemm>(
     field: &mut NeuralField<T>,
     record: Option<&FieldRecord<T>>,

@@ -10,7 +10,7 @@
 //!   `t′ = t₀`. So a future frame is the waypoint state at the end of the window carried
 //!   forward by the velocity field alone.
 //! - **What is rendered inside the window** ([`HopRender`]): the hop's end (the image
-//!   trains both fields through the hop, as FreeGave and TRACE do), or the waypoint state
+//!   trains both fields through the hop, as `FreeGave` and `TRACE` do), or the waypoint state
 //!   at `t` itself (the image trains the waypoint field only, and the velocity field learns
 //!   from the teacher loss alone, as ODE-GS does).
 //! - **The law of a hop** ([`HopLaw`]): the velocity field (first order), or Newtonian
@@ -349,6 +349,10 @@ impl<T: Gemm> Model<T> {
             T::from_f64(start),
             out,
         );
+        #[allow(
+            clippy::float_cmp,
+            reason = "`start` is `t` itself when no hop is taken"
+        )]
         let moves = start != t;
         let prev = (moves && law == HopLaw::SecondOrder).then(|| {
             let t_prev = self.hop.velocity_from(start);
@@ -555,7 +559,12 @@ impl<T: Gemm> Model<T> {
         grad: &mut ModelGrad<T>,
     ) -> f64 {
         let m = indices.len();
-        if m == 0 || weight == 0.0 || self.waypoint_field.is_none() || a == b {
+        #[allow(
+            clippy::float_cmp,
+            reason = "an empty window or a zero weight, exactly"
+        )]
+        let nothing = m == 0 || weight == 0.0 || self.waypoint_field.is_none() || a == b;
+        if nothing {
             return 0.0;
         }
         let law = self.hop.law;
@@ -631,6 +640,10 @@ impl<T: Gemm> Model<T> {
             ..self.hop
         };
         let start = hop.start(t, side);
+        #[allow(
+            clippy::float_cmp,
+            reason = "`start` is `t` itself when no hop is taken"
+        )]
         if start == t {
             return None;
         }
@@ -686,6 +699,7 @@ impl<T: Gemm> StateCotangent<T> {
 }
 
 #[cfg(test)]
+#[allow(clippy::float_cmp, reason = "the window's ends are returned exactly")]
 mod tests {
     use super::*;
 
