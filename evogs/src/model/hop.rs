@@ -17,7 +17,7 @@
 //!   dynamics in which the field is the acceleration and the Gaussians carry velocities
 //!   that start from the waypoint field's finite difference over one hop
 //!   ([`SecondOrderField`]); after the window a Gaussian then keeps moving by inertia.
-//! - **The teacher loss** ([`Model::teacher_loss`]): multiple shooting of the velocity
+//! - **The teacher loss** ([`Model::teacher_loss`], in [`super::teacher`]): multiple shooting of the velocity
 //!   field against the waypoint field's trajectories in 3D, without rendering: from the
 //!   waypoint state at `a` integrate to `b` and compare with the waypoint state at `b`
 //!   (`|Δp|² + |Log(q q̃*)|² + |Δs|²`, mean over sampled Gaussians). The waypoint states are
@@ -205,7 +205,7 @@ fn with_velocities<T: Gemm>(y: &[T], prev: &[T], t: T, t_prev: T) -> Vec<T> {
 }
 
 /// Gaussian `i`'s position, rotation and log-scale in a state of either law.
-fn pose<T: Gemm>(y: &[T], i: usize, law: HopLaw) -> (Vec3<T>, Quat<T>, Vec3<T>) {
+pub(super) fn pose<T: Gemm>(y: &[T], i: usize, law: HopLaw) -> (Vec3<T>, Quat<T>, Vec3<T>) {
     let stride = match law {
         HopLaw::FirstOrder => STATE_STRIDE,
         HopLaw::SecondOrder => SECOND_ORDER_STRIDE,
@@ -219,7 +219,7 @@ fn pose<T: Gemm>(y: &[T], i: usize, law: HopLaw) -> (Vec3<T>, Quat<T>, Vec3<T>) 
 }
 
 /// Tangent entries per Gaussian of a law's state.
-const fn tangent(law: HopLaw) -> usize {
+pub(super) const fn tangent(law: HopLaw) -> usize {
     match law {
         HopLaw::FirstOrder => TANGENT,
         HopLaw::SecondOrder => SECOND_ORDER_TANGENT,
@@ -303,7 +303,12 @@ impl<T: Gemm> Model<T> {
 
     /// Integrates the hop law from `y` (a state of `count` Gaussians) over `grid` in place,
     /// with no record (the teacher and the diagnostics).
-    fn flow_plain(&mut self, grid: &TimeGrid<T>, y: &mut [T], count: usize) -> Trajectory<T> {
+    pub(super) fn flow_plain(
+        &mut self,
+        grid: &TimeGrid<T>,
+        y: &mut [T],
+        count: usize,
+    ) -> Trajectory<T> {
         self.field.set_count(count);
         let trajectory = match self.hop.law {
             HopLaw::FirstOrder => {
@@ -322,7 +327,7 @@ impl<T: Gemm> Model<T> {
     }
 
     /// The time grid of a hop from `a` to `b` (steps of at most `max_step`).
-    fn hop_grid(&self, a: f64, b: f64) -> TimeGrid<T> {
+    pub(super) fn hop_grid(&self, a: f64, b: f64) -> TimeGrid<T> {
         TimeGrid::with_max_step(T::from_f64(a), T::from_f64(b), T::from_f64(self.max_step))
     }
 
@@ -505,7 +510,7 @@ impl<T: Gemm> Model<T> {
     /// The packed ODE states of the hop law for the Gaussians `indices` starting at the
     /// waypoint time `t` (second order: with the finite-difference velocities), from their
     /// canonical positions `pos`; no record (nothing differentiates through it).
-    fn law_states(&mut self, t: f64, indices: &[usize], pos: &[T]) -> Vec<T> {
+    pub(super) fn law_states(&mut self, t: f64, indices: &[usize], pos: &[T]) -> Vec<T> {
         let y = self.waypoint_states(t, indices, pos);
         match self.hop.law {
             HopLaw::FirstOrder => y,
@@ -519,7 +524,7 @@ impl<T: Gemm> Model<T> {
 
     /// The packed states `[p, q̂, s]` (stride 10) of the Gaussians `indices` at the
     /// waypoint time `t`, from their canonical positions `pos`.
-    fn waypoint_states(&mut self, t: f64, indices: &[usize], pos: &[T]) -> Vec<T> {
+    pub(super) fn waypoint_states(&mut self, t: f64, indices: &[usize], pos: &[T]) -> Vec<T> {
         let m = indices.len();
         let mut net = vec![T::ZERO; m * OUTPUTS];
         let at = Batch {
@@ -543,84 +548,6 @@ impl<T: Gemm> Model<T> {
             y.extend_from_slice(&[p.x, p.y, p.z, q.w, q.x, q.y, q.z, s.x, s.y, s.z]);
         }
         y
-    }
-
-    /// The teacher loss over the window `(a, b)` (`a ≠ b`, both inside the training
-    /// window) for the Gaussians `indices`:
-    /// `weight/m · Σ_i (|p_i − p̃_i|² + |Log(q_i q̃_i*)|² + |s_i − s̃_i|²)` between the
-    /// waypoint state at `a` carried to `b` by the hop law and the waypoint state at `b`.
-    /// **Adds** the field's gradient into `grad.field` (the waypoint states are held fixed)
-    /// and returns the loss. Zero without continuous waypoints or samples.
-    pub fn teacher_loss(
-        &mut self,
-        (a, b): (f64, f64),
-        indices: &[usize],
-        weight: f64,
-        grad: &mut ModelGrad<T>,
-    ) -> f64 {
-        let m = indices.len();
-        #[allow(
-            clippy::float_cmp,
-            reason = "an empty window or a zero weight, exactly"
-        )]
-        let nothing = m == 0 || weight == 0.0 || self.waypoint_field.is_none() || a == b;
-        if nothing {
-            return 0.0;
-        }
-        let law = self.hop.law;
-        let pos: Vec<T> = indices
-            .iter()
-            .flat_map(|&i| self.canonical.means[i].to_array())
-            .collect();
-        let mut y = self.law_states(a, indices, &pos);
-        let target = self.waypoint_states(b, indices, &pos);
-        let grid = self.hop_grid(a, b);
-        let trajectory = self.flow_plain(&grid, &mut y, m);
-        let tan = tangent(law);
-        let w = T::from_f64(weight / m as f64);
-        let mut d_final = vec![T::ZERO; m * tan];
-        let mut loss = 0.0;
-        for j in 0..m {
-            let (p, q, s) = pose(&y, j, law);
-            let (pt, qt, st) = unpack(&target, j);
-            let dp = p - pt;
-            let ds = s - st;
-            let delta = log_quat(q.mul_quat(qt.conj()));
-            loss += (dp.norm_squared() + ds.norm_squared() + delta.norm_squared()).to_f64();
-            let o = &mut d_final[j * tan..];
-            (dp * (T::TWO * w)).write_to(o);
-            (delta * (T::TWO * w)).write_to(&mut o[3..]);
-            (ds * (T::TWO * w)).write_to(&mut o[6..]);
-        }
-        let mut d_y0 = vec![T::ZERO; m * tan];
-        self.field.set_count(m);
-        match law {
-            HopLaw::FirstOrder => {
-                let mut st = Stepper::new(self.method, VectorField::layout(&self.field));
-                discrete_adjoint(
-                    &mut self.field,
-                    &mut st,
-                    &trajectory,
-                    &d_final,
-                    &mut d_y0,
-                    &mut grad.field,
-                );
-            }
-            HopLaw::SecondOrder => {
-                let mut st = Stepper::new(self.method, second_order_layout(m));
-                let mut f = SecondOrderField::new(&mut self.field, m);
-                discrete_adjoint(
-                    &mut f,
-                    &mut st,
-                    &trajectory,
-                    &d_final,
-                    &mut d_y0,
-                    &mut grad.field,
-                );
-            }
-        }
-        self.field.set_count(self.len());
-        loss * weight / m as f64
     }
 
     /// The share of the waypoint field's displacement from `t′` to `t` that the hop law

@@ -23,6 +23,7 @@ pub mod order;
 pub mod packing;
 pub mod render;
 pub mod retain;
+pub mod teacher;
 
 pub use anchors::{AnchorState, Waypoints, anchor_for_time};
 pub use build::{ModelFrame, build_model};
