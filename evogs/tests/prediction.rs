@@ -97,3 +97,24 @@ fn first_order_hops_carry_a_sliding_box_past_the_training_window() {
         err.relative
     );
 }
+
+/// The configurations that `docs/results.md` measures with (`docs/configs/*.toml`) still
+/// read onto the `fast` preset and validate.
+#[test]
+fn the_documented_prediction_configurations_read_and_validate() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/configs");
+    let mut read = 0;
+    for entry in std::fs::read_dir(&dir).expect("docs/configs") {
+        let path = entry.expect("an entry").path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let text = std::fs::read_to_string(&path).expect("readable");
+            let cfg = TrainConfig::fast()
+                .merge_toml(&text)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            cfg.validate()
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            read += 1;
+        }
+    }
+    assert!(read >= 5, "{read} configurations");
+}
