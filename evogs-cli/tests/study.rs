@@ -94,6 +94,8 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
         ("sparse:4", "train views at dropped times"),
         ("future:0.75", "test t <= 0.75"),
         ("future:0.75", "test t > 0.75"),
+        ("future:0.75", "test t in (0.75, 0.85]"),
+        ("future:0.75", "test t in (0.85, 1]"),
     ];
     assert_eq!(
         rows.iter()
@@ -102,9 +104,10 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
         expected,
         "one row per protocol and held-out set"
     );
-    // toys-mini: 10 test views (8 at t <= 0.75), 75 training views of which sparse:4 keeps 19.
+    // toys-mini: 10 test views (8 at t <= 0.75, one in each bin after), 75 training views of
+    // which sparse:4 keeps 19.
     let frames: Vec<usize> = s.rows.iter().map(|r| r.frames).collect();
-    assert_eq!(frames, [10, 10, 56, 8, 2], "frames per held-out set");
+    assert_eq!(frames, [10, 10, 56, 8, 2, 1, 1], "frames per held-out set");
     for r in &s.rows {
         assert_eq!(r.cells.len(), 3, "a cell per motion");
         for c in &r.cells {
@@ -127,23 +130,27 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
         md.contains("| sparse:4 | train views at dropped times | 56 |"),
         "{md}"
     );
-    // The no-training baselines of future:0.75, from its deformation run, beyond 0.75 only.
+    // The no-training baselines of future:0.75, from its deformation run, beyond 0.75 only
+    // (the whole stretch and its two bins).
     let base: Vec<(&str, &str)> = s
         .baselines
         .iter()
         .map(|b| (b.baseline.as_str(), b.set.as_str()))
         .collect();
-    assert_eq!(
-        base,
-        [
-            ("hold", "test t > 0.75"),
-            ("const-vel", "test t > 0.75"),
-            ("const-acc", "test t > 0.75")
-        ],
-        "baseline rows"
-    );
+    let mut want = Vec::new();
+    for b in ["hold", "const-vel", "const-acc"] {
+        for set in [
+            "test t > 0.75",
+            "test t in (0.75, 0.85]",
+            "test t in (0.85, 1]",
+        ] {
+            want.push((b, set));
+        }
+    }
+    assert_eq!(base, want, "baseline rows");
     for b in &s.baselines {
-        assert!(b.psnr.mean > 10.0 && b.frames == 2, "{b:?}");
+        let frames = if b.set == "test t > 0.75" { 2 } else { 1 };
+        assert!(b.psnr.mean > 10.0 && b.frames == frames, "{b:?}");
     }
     assert!(
         out.join("runs/future0.75-deformation-s0/baselines.json")
@@ -180,6 +187,15 @@ fn a_study_writes_its_table_and_reuses_or_resumes_runs() {
     // points are the held-out frames (one per time on the full protocol's test set) with the
     // table's means.
     assert_eq!(o.time_plots.len(), 3, "a plot per protocol");
+    // The contact sheet of the future protocol: the ground truth above the three motions.
+    assert_eq!(o.contact_sheets.len(), 1, "a sheet per future protocol");
+    let sheet = image::open(&o.contact_sheets[0]).expect("a contact sheet");
+    assert!(
+        o.contact_sheets[0].ends_with("study-contact-future0.75.png"),
+        "{}",
+        o.contact_sheets[0].display()
+    );
+    assert!(sheet.height() > 4 * 16, "four rows: {}", sheet.height());
     assert_eq!(s.timelines.len(), 3, "a timeline per protocol");
     for (t, plot) in s.timelines.iter().zip(&o.time_plots) {
         assert_eq!(out.join(&t.plot), *plot, "the plot's name");

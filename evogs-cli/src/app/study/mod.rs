@@ -7,10 +7,11 @@
 //! protocol with a deformation run also gets the no-training baselines `hold`, `const-vel`
 //! and `const-acc` computed from that run (`RUN/baselines.json`), and on a dataset with a
 //! `motion.json` (`evogs scenes`) every future run and baseline gets its trajectory error at
-//! t = 1.3.
+//! t = 1.3. A `future:TAU` protocol also gets a contact sheet of frames after the window, the
+//! ground truth above each motion's render (`study-contact-<protocol>.png`, [`contact`]).
 //!
 //! ```text
-//! OUT/study.json  study.md  study.png  study-time-<protocol>.png
+//! OUT/study.json  study.md  study.png  study-time-<protocol>.png  study-contact-<protocol>.png
 //! OUT/runs/<protocol>-<motion>-s<k>/   config.toml checkpoint.safetensors log.csv ... study-run.json
 //! ```
 //!
@@ -21,6 +22,7 @@
 //! held-out frames, the configuration of every run, the dataset and the output folder.
 
 mod baselines;
+mod contact;
 mod progress;
 mod protocol;
 mod report;
@@ -120,6 +122,9 @@ pub struct StudyOutcome {
     pub chart: PathBuf,
     /// `study-time-<protocol>.png`, one per protocol.
     pub time_plots: Vec<PathBuf>,
+    /// `study-contact-<protocol>.png`, one per future protocol: frames after the window,
+    /// the ground truth above each motion's render.
+    pub contact_sheets: Vec<PathBuf>,
     /// Runs trained (or resumed) by this call.
     pub trained: usize,
     /// Runs whose earlier results were reused.
@@ -369,6 +374,19 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         &args.out,
         rep,
     )?;
+    let mut contact_sheets = Vec::new();
+    for (pi, &p) in args.protocols.iter().enumerate() {
+        let sheet = contact::contact_sheet(
+            p,
+            &runs,
+            &ds,
+            &sets[pi],
+            &args.motions,
+            base.data.background,
+            &args.out,
+        )?;
+        contact_sheets.extend(sheet);
+    }
     let summary = StudySummary::new(
         Provenance {
             command: args.command.clone(),
@@ -410,6 +428,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         markdown,
         chart,
         time_plots,
+        contact_sheets,
         trained: pending.len(),
         reused,
     })
