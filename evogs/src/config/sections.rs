@@ -181,7 +181,8 @@ pub struct DynamicsConfig {
     /// Number of anchors (start, …, end of the training time range).
     pub anchors: usize,
     /// Time coordinate of the HexPlane: `normalized` (`[t_min, t_max] → [−1, 1]`) or
-    /// `autonomous` (no time input: a field of position alone).
+    /// `autonomous` (no time input: a field of position alone; velocity motion only, the
+    /// deformation motion reads `normalized` whatever this says).
     pub time_mapping: TimeCoordinate,
 }
 

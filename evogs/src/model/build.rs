@@ -27,7 +27,8 @@ pub struct ModelFrame {
 impl ModelFrame {
     /// The frame of a new run over the training time range `(t0, t1)`: the bounding box of
     /// the canonical positions widened by `init.aabb_margin` of its size on each axis (a unit
-    /// box around the origin on an axis without points), the configured time coordinate,
+    /// box around the origin on an axis without points), the configured time coordinate
+    /// (`autonomous` for velocity motion only; deformation always reads time),
     /// steps of `dynamics.step_fraction` of the range (continuous waypoints: `hop.length /
     /// hop.steps` of it) and `dynamics.anchors` anchor times spread evenly over it.
     #[must_use]
@@ -47,12 +48,15 @@ impl ModelFrame {
             lo[a] -= m;
             hi[a] += m;
         }
-        let time = match cfg.dynamics.time_mapping {
-            TimeCoordinate::Normalized => TimeMapping::Normalized {
-                t_min: t0,
-                t_max: t1,
-            },
-            TimeCoordinate::Autonomous => TimeMapping::Autonomous,
+        let normalized = TimeMapping::Normalized {
+            t_min: t0,
+            t_max: t1,
+        };
+        // An autonomous field is a law of the dynamics; a displacement without a time input
+        // would be a static model, so the deformation motion always reads time.
+        let time = match (cfg.dynamics.time_mapping, cfg.dynamics.motion) {
+            (TimeCoordinate::Autonomous, Motion::Velocity) => TimeMapping::Autonomous,
+            _ => normalized,
         };
         let step_fraction = if continuous(cfg) {
             cfg.hop.length / cfg.hop.steps as f64
@@ -112,4 +116,32 @@ pub fn build_model(cfg: &TrainConfig, canonical: Splats<f32>, frame: ModelFrame)
     model.waypoint_field = waypoint_field;
     model.hop = hop;
     model
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_the_velocity_motion_can_drop_the_time_input() {
+        let canonical = Splats::<f32>::new(0);
+        let mut cfg = TrainConfig::fast();
+        cfg.dynamics.time_mapping = TimeCoordinate::Autonomous;
+        let velocity = ModelFrame::for_training(&cfg, &canonical, (0.0, 0.75));
+        assert_eq!(
+            velocity.time,
+            TimeMapping::Autonomous,
+            "velocity: autonomous"
+        );
+        cfg.dynamics.motion = Motion::Deformation;
+        let deformation = ModelFrame::for_training(&cfg, &canonical, (0.0, 0.75));
+        assert_eq!(
+            deformation.time,
+            TimeMapping::Normalized {
+                t_min: 0.0,
+                t_max: 0.75
+            },
+            "deformation reads time"
+        );
+    }
 }
