@@ -354,8 +354,12 @@ fn protocols_select_frame_indices_of_every_camera() {
         .collect();
     assert_eq!(
         sizes,
-        vec![("test t <= 0.75".into(), 4), ("test t > 0.75".into(), 1)],
-        "cam00 split at 0.75"
+        vec![
+            ("test t <= 0.75".into(), 4),
+            ("test t > 0.75".into(), 1),
+            ("test t in (0.85, 1]".into(), 1)
+        ],
+        "cam00 split at 0.75 (its one frame after the window falls in the second bin)"
     );
     std::fs::remove_dir_all(dir).ok();
 }
