@@ -8,7 +8,7 @@
 //! and `const-acc` computed from that run (`RUN/baselines.json`), and on a dataset with a
 //! `motion.json` (`evogs scenes`) every future run and baseline gets its trajectory error at
 //! t = 1.3. A `future:TAU` protocol also gets a contact sheet of frames after the window, the
-//! ground truth above each motion's render (`study-contact-<protocol>.png`, [`contact`]).
+//! ground truth above each motion's render (`study-contact-<protocol>.png`).
 //!
 //! ```text
 //! OUT/study.json  study.md  study.png  study-time-<protocol>.png  study-contact-<protocol>.png
