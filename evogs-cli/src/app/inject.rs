@@ -181,6 +181,15 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
             "injection needs a trained run with velocity motion",
         ));
     }
+    if model.waypoint_field.is_some() {
+        // Its frames are the waypoint field's states carried over hops; an injected field
+        // integrated from the canonical state would show another motion than the run's.
+        return Err(CommandError::at(
+            &run.checkpoint(),
+            "injection is not available for continuous waypoints (dynamics.waypoints = \
+             \"continuous\"): the run's frames come from its waypoint field and hops",
+        ));
+    }
     let dir = match &args.data {
         Some(d) => d.clone(),
         None => run.data_dir().map_err(CommandError::new)?,
