@@ -94,17 +94,21 @@ fn linear_loss(model: &mut Model<f64>, times: &[f64], w: &[Vec<f64>]) -> f64 {
     l
 }
 
-/// The model backward at two times, one integrated from the canonical state (t = 0.3) and
-/// one from anchor 1 (t = 0.7), so that every parameter group has a gradient.
-fn model_backward_row(motion: Motion, seed: u64, samples: usize) -> GradRow {
-    let GradScene { mut model, .. } = grad_scene(motion, seed);
-    let times = [0.3, 0.7];
+/// The model backward of `L = Σ_t ⟨W_t, Gaussians(t)⟩` at `times` (random `W_t`), checked
+/// against central differences in every parameter group: one row named `label`.
+fn backward_row(
+    mut model: Model<f64>,
+    times: &[f64],
+    seed: u64,
+    samples: usize,
+    label: &str,
+) -> GradRow {
     let mut rng = SplitMix64::new(seed ^ 0x5eed);
     let mut st = None;
     let mut out = Splats::default();
     let mut grad = model.zero_grad();
     let mut ws = Vec::new();
-    for &t in &times {
+    for &t in times {
         let tape = model.splats_at(t, &mut st, &mut out);
         let w = uniform(&mut rng, out.flat_len(), -1.0, 1.0);
         let mut d = out.zeros_like();
@@ -113,20 +117,25 @@ fn model_backward_row(motion: Motion, seed: u64, samples: usize) -> GradRow {
         ws.push(w);
     }
     let (reports, nonzero) = groups(&mut model, &grad, samples, &mut rng, &mut |m| {
-        linear_loss(m, &times, &ws)
+        linear_loss(m, times, &ws)
     })
     .into_iter()
     .fold((Vec::new(), true), |(mut r, nz), (_, rep, z)| {
         r.push(rep);
         (r, nz && z)
     });
-    with_nonzero(
-        GradRow::from_reports(
-            &format!("cli: {} model backward (all groups)", name(motion)),
-            &reports,
-            &[],
-        ),
-        nonzero,
+    with_nonzero(GradRow::from_reports(label, &reports, &[]), nonzero)
+}
+
+/// The model backward at two times, one integrated from the canonical state (t = 0.3) and
+/// one from anchor 1 (t = 0.7), so that every parameter group has a gradient.
+fn model_backward_row(motion: Motion, seed: u64, samples: usize) -> GradRow {
+    backward_row(
+        grad_scene(motion, seed).model,
+        &[0.3, 0.7],
+        seed,
+        samples,
+        &format!("cli: {} model backward (all groups)", name(motion)),
     )
 }
 
@@ -140,40 +149,16 @@ pub fn continuous_backward_row(
     seed: u64,
     samples: usize,
 ) -> GradRow {
-    let GradScene { mut model, .. } = continuous_grad_scene(render, law, HopStart::Before, seed);
-    let times = [-0.15, 0.1, 0.45, 0.95, 1.25];
-    let mut rng = SplitMix64::new(seed ^ 0x5eed);
-    let mut st = None;
-    let mut out = Splats::default();
-    let mut grad = model.zero_grad();
-    let mut ws = Vec::new();
-    for &t in &times {
-        let tape = model.splats_at(t, &mut st, &mut out);
-        let w = uniform(&mut rng, out.flat_len(), -1.0, 1.0);
-        let mut d = out.zeros_like();
-        d.read_flat(&w);
-        model.backward_at(&tape, &mut st, &d, &mut grad);
-        ws.push(w);
-    }
-    let (reports, nonzero) = groups(&mut model, &grad, samples, &mut rng, &mut |m| {
-        linear_loss(m, &times, &ws)
-    })
-    .into_iter()
-    .fold((Vec::new(), true), |(mut r, nz), (_, rep, z)| {
-        r.push(rep);
-        (r, nz && z)
-    });
-    with_nonzero(
-        GradRow::from_reports(
-            &format!(
-                "cli: continuous waypoints ({}, {}) model backward (all groups)",
-                render_name(render),
-                law_name(law)
-            ),
-            &reports,
-            &[],
+    backward_row(
+        continuous_grad_scene(render, law, HopStart::Before, seed).model,
+        &[-0.15, 0.1, 0.45, 0.95, 1.25],
+        seed,
+        samples,
+        &format!(
+            "cli: continuous waypoints ({}, {}) model backward (all groups)",
+            render_name(render),
+            law_name(law)
         ),
-        nonzero,
     )
 }
 
