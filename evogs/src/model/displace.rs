@@ -7,9 +7,9 @@
 
 use super::{StateMut, StateRef};
 use crate::field::{Batch, BatchVjp, FieldRecord, Gemm, NeuralField};
-use evogs_math::Vec3;
 use evogs_math::activation::normalize_quat_vjp;
 use evogs_math::update::{exp_update_left, exp_update_left_vjp};
+use evogs_math::{Quat, Vec3};
 use evogs_splat::Splats;
 
 /// Network outputs per Gaussian: `[Δp, Δω, Δs]`.
@@ -21,16 +21,32 @@ pub fn flat_positions<T: Gemm>(canonical: &Splats<T>) -> Vec<T> {
     canonical.means.iter().flat_map(|v| v.to_array()).collect()
 }
 
-/// Writes the canonical Gaussians displaced by `field` at `t` into `out`'s positions,
-/// rotations and log-scales (opacity and colour are left as they are) and returns the
-/// network outputs (`N × 9`, for [`displace_vjp`]); the field's activations go to `record`.
+/// Gaussian `i` of `canonical` displaced by its network outputs `o = [Δp, Δω, Δs]`:
+/// `(p₀ + Δp, Exp(Δω)·q̂₀, s₀ + Δs)` (the rotation unit up to rounding, not renormalised).
+#[must_use]
+pub fn displaced<T: Gemm>(canonical: &Splats<T>, i: usize, o: &[T]) -> (Vec3<T>, Quat<T>, Vec3<T>) {
+    (
+        canonical.means[i] + Vec3::from_slice(o),
+        exp_update_left(
+            canonical.quats[i].normalize(),
+            Vec3::from_slice(&o[3..]),
+            T::ONE,
+        ),
+        canonical.log_scales[i] + Vec3::from_slice(&o[6..]),
+    )
+}
+
+/// Writes the canonical Gaussians displaced by `field` at `t` into `out` (positions,
+/// log-scales, rotations) and returns the network outputs (`N × 9`, for [`displace_vjp`]);
+/// the field's activations go to `record`.
 pub fn displace<T: Gemm>(
     field: &mut NeuralField<T>,
     record: &mut FieldRecord<T>,
     canonical: &Splats<T>,
     t: T,
-    out: &mut Splats<T>,
+    out: StateMut<'_, T>,
 ) -> Vec<T> {
+    let (means, log_scales, quats) = out;
     let n = canonical.len();
     let pos = flat_positions(canonical);
     let mut net = vec![T::ZERO; n * OUTPUTS];
@@ -42,14 +58,7 @@ pub fn displace<T: Gemm>(
     };
     field.eval_batch(&at, &mut net, Some(record));
     for i in 0..n {
-        let o = &net[i * OUTPUTS..];
-        out.means[i] = canonical.means[i] + Vec3::from_slice(o);
-        out.quats[i] = exp_update_left(
-            canonical.quats[i].normalize(),
-            Vec3::from_slice(&o[3..]),
-            T::ONE,
-        );
-        out.log_scales[i] = canonical.log_scales[i] + Vec3::from_slice(&o[6..]);
+        (means[i], quats[i], log_scales[i]) = displaced(canonical, i, &net[i * OUTPUTS..]);
     }
     net
 }

@@ -241,7 +241,7 @@ impl<T: Gemm> Model<T> {
                     &mut self.records.displacement,
                     &self.canonical,
                     tf,
-                    out,
+                    (&mut out.means, &mut out.log_scales, &mut out.quats),
                 );
                 FrameTape::Deformation {
                     t: tf,
@@ -327,15 +327,22 @@ impl<T: Gemm> Model<T> {
         stepper: &mut Option<Stepper<T>>,
     ) -> (Trajectory<T>, u64) {
         let mut st = self.stepper(stepper);
+        let recording = self.new_recording();
+        let trajectory =
+            integrate_recorded(&mut self.field, &mut st, grid, y0, &mut self.records.stages);
+        *stepper = Some(st);
+        (trajectory, recording)
+    }
+
+    /// Starts a new recording of stage records: the tape sized to the field's memory budget
+    /// for the current Gaussians, and the recording's serial number.
+    pub(super) fn new_recording(&mut self) -> u64 {
         let budget = self.field.records_within_budget(self.len());
         if self.records.stages.capacity() != budget {
             self.records.stages.set_capacity(budget);
         }
         self.records.serial += 1;
-        let trajectory =
-            integrate_recorded(&mut self.field, &mut st, grid, y0, &mut self.records.stages);
-        *stepper = Some(st);
-        (trajectory, self.records.serial)
+        self.records.serial
     }
 
     /// Runs the discrete adjoint of `trajectory` (integrated as `recording`) for the final

@@ -25,7 +25,7 @@
 //!
 //! `docs/method.md` §6 tells the design and `docs/results.md` the measurements.
 
-use super::displace::{OUTPUTS, displace, displace_vjp, flat_positions};
+use super::displace::{OUTPUTS, displace, displace_vjp, displaced, flat_positions};
 use super::packing::{TANGENT, pack_state, unpack};
 use super::{Model, ModelGrad};
 use crate::field::neural::STATE_STRIDE;
@@ -36,9 +36,7 @@ use crate::field::{
 use evogs_math::activation::normalize_quat_vjp;
 use evogs_math::so3::log_quat;
 use evogs_math::so3_jacobians::{left_jacobian_inv, right_jacobian_inv};
-use evogs_math::update::{
-    ambient_from_left_cotangent, exp_update_left, left_cotangent_from_ambient,
-};
+use evogs_math::update::{ambient_from_left_cotangent, left_cotangent_from_ambient};
 use evogs_math::{Quat, Vec3};
 use evogs_ode::{
     Checkpointing, Stepper, TimeGrid, Trajectory, VectorField, discrete_adjoint,
@@ -250,16 +248,12 @@ impl<T: Gemm> Model<T> {
             HopLaw::FirstOrder => self.integrate_recorded(grid, y0, stepper),
             HopLaw::SecondOrder => {
                 let mut st = self.stepper_for(second_order_layout(n), stepper);
-                let budget = self.field.records_within_budget(n);
-                if self.records.stages.capacity() != budget {
-                    self.records.stages.set_capacity(budget);
-                }
-                self.records.serial += 1;
+                let recording = self.new_recording();
                 let mut law = SecondOrderField::new(&mut self.field, n);
                 let trajectory =
                     integrate_recorded(&mut law, &mut st, grid, y0, &mut self.records.stages);
                 *stepper = Some(st);
-                (trajectory, self.records.serial)
+                (trajectory, recording)
             }
         }
     }
@@ -352,7 +346,7 @@ impl<T: Gemm> Model<T> {
             &mut self.records.waypoint,
             &self.canonical,
             T::from_f64(start),
-            out,
+            (&mut out.means, &mut out.log_scales, &mut out.quats),
         );
         #[allow(
             clippy::float_cmp,
@@ -361,13 +355,18 @@ impl<T: Gemm> Model<T> {
         let moves = start != t;
         let prev = (moves && law == HopLaw::SecondOrder).then(|| {
             let t_prev = self.hop.velocity_from(start);
-            let mut at_prev = self.canonical.clone();
+            let n = self.canonical.len();
+            let mut at_prev = (
+                vec![Vec3::zero(); n],
+                vec![Vec3::zero(); n],
+                vec![Quat::zero(); n],
+            );
             let net_prev = displace(
                 field,
                 &mut self.records.waypoint_prev,
                 &self.canonical,
                 T::from_f64(t_prev),
-                &mut at_prev,
+                (&mut at_prev.0, &mut at_prev.1, &mut at_prev.2),
             );
             (T::from_f64(t_prev), net_prev, at_prev)
         });
@@ -377,12 +376,7 @@ impl<T: Gemm> Model<T> {
             pack_state(&out.means, &out.log_scales, &out.quats, &mut y0);
             if let Some((t_prev, _, at_prev)) = &prev {
                 let mut y_prev = Vec::with_capacity(n * STATE_STRIDE);
-                pack_state(
-                    &at_prev.means,
-                    &at_prev.log_scales,
-                    &at_prev.quats,
-                    &mut y_prev,
-                );
+                pack_state(&at_prev.0, &at_prev.1, &at_prev.2, &mut y_prev);
                 y0 = with_velocities(&y0, &y_prev, T::from_f64(start), *t_prev);
             }
             let grid = self.hop_grid(start, t);
@@ -536,15 +530,8 @@ impl<T: Gemm> Model<T> {
         self.waypoint_field_mut().eval_batch(&at, &mut net, None);
         let mut y = Vec::with_capacity(m * STATE_STRIDE);
         for (j, &i) in indices.iter().enumerate() {
-            let o = &net[j * OUTPUTS..];
-            let p = self.canonical.means[i] + Vec3::from_slice(o);
-            let q = exp_update_left(
-                self.canonical.quats[i].normalize(),
-                Vec3::from_slice(&o[3..]),
-                T::ONE,
-            )
-            .normalize();
-            let s = self.canonical.log_scales[i] + Vec3::from_slice(&o[6..]);
+            let (p, q, s) = displaced(&self.canonical, i, &net[j * OUTPUTS..]);
+            let q = q.normalize();
             y.extend_from_slice(&[p.x, p.y, p.z, q.w, q.x, q.y, q.z, s.x, s.y, s.z]);
         }
         y
@@ -613,13 +600,9 @@ impl<T: Gemm> StateCotangent<T> {
     fn ambient(&self, canonical: &Splats<T>, net: &[T]) -> Vec<Quat<T>> {
         (0..self.rot.len())
             .map(|i| {
-                let displaced = exp_update_left(
-                    canonical.quats[i].normalize(),
-                    Vec3::from_slice(&net[i * OUTPUTS + 3..]),
-                    T::ONE,
-                );
-                let amb = ambient_from_left_cotangent(displaced.normalize(), self.rot[i]);
-                normalize_quat_vjp(displaced, amb)
+                let q = displaced(canonical, i, &net[i * OUTPUTS..]).1;
+                let amb = ambient_from_left_cotangent(q.normalize(), self.rot[i]);
+                normalize_quat_vjp(q, amb)
             })
             .collect()
     }
