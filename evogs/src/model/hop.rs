@@ -320,6 +320,40 @@ impl<T: Gemm> Model<T> {
         trajectory
     }
 
+    /// The discrete adjoint of [`flow_plain`](Self::flow_plain) for `count` Gaussians and
+    /// the final cotangent `d_final`: adds the field's gradient into `d_params` and returns
+    /// the initial state's cotangent.
+    pub(super) fn flow_adjoint_plain(
+        &mut self,
+        trajectory: &Trajectory<T>,
+        d_final: &[T],
+        count: usize,
+        d_params: &mut [T],
+    ) -> Vec<T> {
+        let mut d_y0 = vec![T::ZERO; count * tangent(self.hop.law)];
+        self.field.set_count(count);
+        match self.hop.law {
+            HopLaw::FirstOrder => {
+                let mut st = Stepper::new(self.method, VectorField::layout(&self.field));
+                discrete_adjoint(
+                    &mut self.field,
+                    &mut st,
+                    trajectory,
+                    d_final,
+                    &mut d_y0,
+                    d_params,
+                );
+            }
+            HopLaw::SecondOrder => {
+                let mut st = Stepper::new(self.method, second_order_layout(count));
+                let mut law = SecondOrderField::new(&mut self.field, count);
+                discrete_adjoint(&mut law, &mut st, trajectory, d_final, &mut d_y0, d_params);
+            }
+        }
+        self.field.set_count(self.len());
+        d_y0
+    }
+
     /// The time grid of a hop from `a` to `b` (steps of at most `max_step`).
     pub(super) fn hop_grid(&self, a: f64, b: f64) -> TimeGrid<T> {
         TimeGrid::with_max_step(T::from_f64(a), T::from_f64(b), T::from_f64(self.max_step))

@@ -2,14 +2,11 @@
 //! the hop law against the waypoint field's trajectories in 3D, without rendering
 //! (`docs/losses.md` §9).
 
-use super::hop::{HopLaw, pose, tangent};
+use super::hop::{pose, tangent};
 use super::packing::unpack;
 use super::{Model, ModelGrad};
 use crate::field::Gemm;
-use crate::field::SecondOrderField;
-use crate::field::second_order::second_order_layout;
 use evogs_math::so3::log_quat;
-use evogs_ode::{Stepper, VectorField, discrete_adjoint};
 
 impl<T: Gemm> Model<T> {
     /// The teacher loss over the window `(a, b)` (`a ≠ b`, both inside the training
@@ -59,34 +56,7 @@ impl<T: Gemm> Model<T> {
             (delta * (T::TWO * w)).write_to(&mut o[3..]);
             (ds * (T::TWO * w)).write_to(&mut o[6..]);
         }
-        let mut d_y0 = vec![T::ZERO; m * tan];
-        self.field.set_count(m);
-        match law {
-            HopLaw::FirstOrder => {
-                let mut st = Stepper::new(self.method, VectorField::layout(&self.field));
-                discrete_adjoint(
-                    &mut self.field,
-                    &mut st,
-                    &trajectory,
-                    &d_final,
-                    &mut d_y0,
-                    &mut grad.field,
-                );
-            }
-            HopLaw::SecondOrder => {
-                let mut st = Stepper::new(self.method, second_order_layout(m));
-                let mut f = SecondOrderField::new(&mut self.field, m);
-                discrete_adjoint(
-                    &mut f,
-                    &mut st,
-                    &trajectory,
-                    &d_final,
-                    &mut d_y0,
-                    &mut grad.field,
-                );
-            }
-        }
-        self.field.set_count(self.len());
+        self.flow_adjoint_plain(&trajectory, &d_final, m, &mut grad.field);
         loss * weight / m as f64
     }
 }
