@@ -4,7 +4,7 @@
 //! (`RUN/baselines.json`, reused while the run's configuration is unchanged).
 
 use super::protocol::{HeldOutSet, StudyProtocol};
-use super::report::{BaselineRecord, BaselineSets, SetMetrics};
+use super::record::{BaselineRecord, BaselineSets, SetMetrics};
 use super::runner::{PlannedRun, TRAJECTORY_TIME, write_atomic};
 use crate::app::Reporter;
 use crate::app::error::CommandError;

@@ -25,14 +25,16 @@ mod baselines;
 mod contact;
 mod progress;
 mod protocol;
+mod record;
 mod report;
 mod runner;
 mod timeline;
 
 pub use protocol::{HeldOutSet, StudyProtocol};
+pub use record::{BaselineRecord, BaselineSets, RunRecord, SetMetrics};
 pub use report::{
-    BaselineRecord, BaselineRow, BaselineSets, Cell, CostRow, CurvePoint, DynamicRow, MotionCurve,
-    Provenance, Row, RunRecord, SetMetrics, Stat, StudySummary, Timeline, TrajectoryRow,
+    BaselineRow, Cell, CostRow, CurvePoint, DynamicRow, MotionCurve, Provenance, Row, Stat,
+    StudySummary, Timeline, TrajectoryRow,
 };
 
 use super::Reporter;

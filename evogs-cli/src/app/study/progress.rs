@@ -5,7 +5,7 @@
 //! several, one `study` bar counts the training iterations of all runs and its message says
 //! where each running run is.
 
-use super::report::RunRecord;
+use super::record::RunRecord;
 use crate::app::Reporter;
 use crate::app::error::CommandError;
 use std::sync::mpsc::Sender;

@@ -2,7 +2,7 @@
 //! evaluate its held-out sets, and write `RUN/study-run.json`.
 
 use super::protocol::{HeldOutSet, StudyProtocol};
-use super::report::{RunRecord, SetMetrics};
+use super::record::{RunRecord, SetMetrics};
 use crate::app::Reporter;
 use crate::app::error::{CommandError, Context as _};
 use crate::app::paths::RunFolder;
