@@ -49,11 +49,69 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(code) => return ExitCode::from(u8::try_from(code).unwrap_or(2)),
     };
+    #[cfg(feature = "mpi")]
+    if evogs_cli::app::cluster::launched_by_mpi() {
+        return run_mpi(cli);
+    }
     match run(cli) {
         Ok(Verdict::Passed) => ExitCode::SUCCESS,
         Ok(Verdict::Failed) => ExitCode::from(1),
         Err(e) => {
             eprintln!("Error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// One process of an MPI job: `train` and `study` share their work with the job's other
+/// processes (rank 0 prints and writes; the others are quiet); any other command runs on
+/// rank 0 alone. An error on any rank ends the whole job (`MPI_Abort`) after its line.
+#[cfg(feature = "mpi")]
+fn run_mpi(cli: Cli) -> ExitCode {
+    use evogs::train::collective::Collective as _;
+    use evogs_cli::app::Silent;
+    use evogs_cli::app::cluster::Mpi;
+    let mpi = match Mpi::init() {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("Error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let rank = mpi.rank();
+    let result = evogs_cli::app::interrupt::install().and_then(|()| {
+        let mut term = Terminal::new();
+        let mut silent = Silent;
+        let rep: &mut dyn evogs_cli::app::Reporter =
+            if rank == 0 { &mut term } else { &mut silent };
+        match cli.cmd {
+            Cmd::Train(args) => {
+                let outcome = evogs_cli::app::train::train_with(&args, rep, &mpi)?;
+                if rank == 0 {
+                    output::train(&outcome);
+                }
+                Ok(Verdict::Passed)
+            }
+            Cmd::Study(mut args) => {
+                args.command = std::env::args().collect::<Vec<_>>().join(" ");
+                let outcome = evogs_cli::app::study::run_study_with(&args, rep, &mpi)?;
+                if let Some(o) = outcome {
+                    output::study(&o);
+                }
+                Ok(Verdict::Passed)
+            }
+            other if rank == 0 => run(Cli { cmd: other }),
+            _ => Ok(Verdict::Passed),
+        }
+    });
+    match result {
+        Ok(Verdict::Passed) => ExitCode::SUCCESS,
+        Ok(Verdict::Failed) => ExitCode::from(1),
+        Err(e) => {
+            eprintln!("Error: rank {rank} of {}: {e}", mpi.size());
+            if mpi.size() > 1 {
+                mpi.abort(1);
+            }
             ExitCode::from(1)
         }
     }

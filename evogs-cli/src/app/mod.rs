@@ -3,6 +3,7 @@
 //! the library never prints.
 
 pub mod bench;
+pub mod cluster;
 pub mod counts;
 pub mod error;
 pub mod evaluate;

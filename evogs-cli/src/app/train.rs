@@ -12,6 +12,7 @@ use evogs::data::{DataFormat, Dataset, SplitName};
 use evogs::eval::{SplitMetrics, evaluate};
 use evogs::model::Motion;
 use evogs::run::checkpoint;
+use evogs::train::collective::{self, Collective, Solo};
 use evogs::train::trainer::{LogRow, Trainer};
 use evogs::train::views::{supervised_indices, training_frames};
 use std::fmt::Write as _;
@@ -314,17 +315,20 @@ fn prepare_folder(args: &TrainArgs, plan: &Plan) -> CommandResult<()> {
         .at(&run.data_ref())
 }
 
-/// Loads the dataset, takes the protocol's training views, prepares the run folder (only
-/// once the data is known to be good), and starts the trainer: continued from the folder's
+/// Loads the dataset, takes the protocol's training views, prepares the run folder (rank 0,
+/// only once the data is known to be good), and starts the trainer: continued from the folder's
 /// checkpoint, or new from the dataset's initial points (with a note saying where they come
 /// from).
 fn start(
     args: &TrainArgs,
     plan: &Plan,
     rep: &mut dyn Reporter,
+    c: &dyn Collective,
 ) -> CommandResult<(Trainer, Dataset)> {
     rep.info(&format!("data: {}", plan.data_dir.display()));
-    let mut ds = load_dataset(&plan.data_dir, &plan.cfg, true)?;
+    // Over several processes each rank decodes only the frames of its views, when it uses
+    // them (through the frame cache).
+    let mut ds = load_dataset(&plan.data_dir, &plan.cfg, c.size() == 1)?;
     let idx = supervised_indices(&ds.train, &plan.cfg.data);
     // The loaded training images move into the training views.
     let views = training_frames(&mut ds.train, &idx, plan.cfg.data.cache_bytes())?;
@@ -336,7 +340,9 @@ fn start(
         ds.format,
         frames_note(&ds, &plan.cfg)
     ));
-    prepare_folder(args, plan)?;
+    if c.rank() == 0 {
+        prepare_folder(args, plan)?;
+    }
     let mut t = if plan.resuming {
         let t = checkpoint::resume(&plan.run.checkpoint(), views).map_err(CommandError::new)?;
         rep.info(&format!("resuming at iteration {}", t.iteration()));
@@ -353,15 +359,46 @@ fn start(
     Ok((t, ds))
 }
 
+/// Writes a checkpoint and the log (rank 0 of several processes, after every rank has shown
+/// that it holds the same parameters).
+fn save_checked(t: &Trainer, run: &RunFolder, c: &dyn Collective) -> CommandResult<()> {
+    if c.size() > 1 {
+        let hash = collective::parameter_hash(t.model());
+        collective::agree(c, "parameters", hash)
+            .map_err(|e| CommandError::new(format!("iteration {}: {e}", t.iteration())))?;
+    }
+    if c.rank() == 0 {
+        save_all(t, run)?;
+    }
+    Ok(())
+}
+
 /// Trains to the planned iteration count with progress, checkpoints on the schedule's
 /// iteration and minute intervals, and a checkpoint at the end. An interrupt stops after the
-/// current iteration with a checkpoint, as an error that says how to continue.
-fn train_loop(t: &mut Trainer, run: &RunFolder, rep: &mut dyn Reporter) -> CommandResult<()> {
+/// current iteration with a checkpoint, as an error that says how to continue. Over several
+/// processes every rank steps together ([`Trainer::step_with`]); a stop or a checkpoint
+/// asked for on any rank (a signal, a rank's clock) is taken by all.
+fn train_loop(
+    t: &mut Trainer,
+    run: &RunFolder,
+    rep: &mut dyn Reporter,
+    c: &dyn Collective,
+) -> CommandResult<()> {
     rep.start("train", t.cfg().schedule.iterations);
     rep.progress(t.iteration(), "");
     let mut last_save = std::time::Instant::now();
+    let all = |flags: [bool; 2]| -> CommandResult<[bool; 2]> {
+        if c.size() == 1 {
+            return Ok(flags);
+        }
+        let got = c
+            .all_gather(&flags.map(u8::from))
+            .map_err(CommandError::new)?;
+        let any = |k: usize| got.iter().skip(k).step_by(2).any(|&b| b != 0);
+        Ok([any(0), any(1)])
+    };
     while !t.finished() {
-        let r = t.step().map_err(CommandError::new)?;
+        let r = t.step_with(c).map_err(CommandError::new)?;
         if r.dynamics_started {
             rep.info(&format!(
                 "iteration {}: dynamics on ({:?} motion, {} Gaussians)",
@@ -381,14 +418,15 @@ fn train_loop(t: &mut Trainer, run: &RunFolder, rep: &mut dyn Reporter) -> Comma
             ),
         );
         let minutes = t.cfg().schedule.checkpoint_minutes;
-        if t.schedule().checkpoint_due(t.iteration())
-            || (minutes > 0.0 && last_save.elapsed().as_secs_f64() >= 60.0 * minutes)
-        {
-            save_all(t, run)?;
+        let due = t.schedule().checkpoint_due(t.iteration())
+            || (minutes > 0.0 && last_save.elapsed().as_secs_f64() >= 60.0 * minutes);
+        let [stop, due] = all([interrupt::requested() && !t.finished(), due])?;
+        if due {
+            save_checked(t, run, c)?;
             last_save = std::time::Instant::now();
         }
-        if interrupt::requested() && !t.finished() {
-            save_all(t, run)?;
+        if stop {
+            save_checked(t, run, c)?;
             rep.finish();
             interrupt::clear();
             return Err(CommandError::new(format!(
@@ -401,7 +439,7 @@ fn train_loop(t: &mut Trainer, run: &RunFolder, rep: &mut dyn Reporter) -> Comma
             )));
         }
     }
-    save_all(t, run)?;
+    save_checked(t, run, c)?;
     rep.finish();
     Ok(())
 }
@@ -457,9 +495,37 @@ fn finish(
 /// Data, configuration, checkpoint or numerical problems (a non-finite loss or gradient stops
 /// the run; the last checkpoint stays intact).
 pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> CommandResult<TrainOutcome> {
+    train_with(args, rep, &Solo)
+}
+
+/// [`train`] as one of the processes of `c` (`mpirun -np P evogs train ...`): each rank
+/// computes its share of every step's `schedule.views_per_step` views and loads only their
+/// frames, every rank holds the same parameters (compared at every checkpoint), and rank 0
+/// alone writes the run folder, the log, the checkpoints and the outputs. One process with
+/// the same batch gives the same bits.
+///
+/// # Errors
+/// As [`train`], a batch that does not split over the ranks, ranks whose parameters differ,
+/// or an exchange that failed.
+pub fn train_with(
+    args: &TrainArgs,
+    rep: &mut dyn Reporter,
+    c: &dyn Collective,
+) -> CommandResult<TrainOutcome> {
     let plan = plan_run(args, rep)?;
-    let (mut t, ds) = start(args, &plan, rep)?;
-    train_loop(&mut t, &plan.run, rep)?;
+    let writer = c.rank() == 0;
+    let (mut t, ds) = start(args, &plan, rep, c)?;
+    t.check_collective(c).map_err(CommandError::new)?;
+    if c.size() > 1 {
+        // Every rank has its data and model (and rank 0 its folder) before the first step.
+        collective::barrier(c).map_err(CommandError::new)?;
+        rep.info(&format!(
+            "{} processes, {} view(s) each per step",
+            c.size(),
+            t.cfg().schedule.views_per_step / c.size() as u64
+        ));
+    }
+    train_loop(&mut t, &plan.run, rep, c)?;
     let mut outcome = TrainOutcome {
         run: plan.run.clone(),
         test: None,
@@ -468,7 +534,7 @@ pub fn train(args: &TrainArgs, rep: &mut dyn Reporter) -> CommandResult<TrainOut
         seconds: t.train_seconds(),
         gaussians: t.model().len(),
     };
-    if !args.skip_outputs {
+    if !args.skip_outputs && writer {
         finish(&mut t, &ds, plan, &mut outcome, rep)?;
     }
     Ok(outcome)

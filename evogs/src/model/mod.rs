@@ -17,6 +17,7 @@ pub mod anchors;
 pub mod build;
 pub mod displace;
 pub mod dynamics;
+pub mod grad_values;
 pub mod hop;
 pub mod init;
 pub mod order;

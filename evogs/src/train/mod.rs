@@ -1,7 +1,9 @@
 //! Training: the optimiser, the losses and regularisers, densification and the training loop.
 
 pub mod adam;
+pub mod batch;
 pub mod coherence;
+pub mod collective;
 pub mod densify;
 pub mod frames;
 pub mod neighbours;

@@ -171,8 +171,10 @@ pub struct ScreenStats<T> {
 }
 
 /// Loss and gradient of one step on one view; **adds** the gradient into `grad` (zero it
-/// first) and returns the loss terms and the densification statistics
-/// ([`batch_loss_and_grad`] of one view).
+/// first) and returns the loss terms and the densification statistics: the view's
+/// photometric term ([`view_loss_and_grad`], weight 1) plus the regularisers at its time
+/// ([`regularizers_and_grad`]). A batch of views is
+/// [`batch_loss_and_grad`](super::batch::batch_loss_and_grad).
 pub fn loss_and_grad<T: Gemm>(
     model: &mut Model<T>,
     view: &ViewData<T>,
@@ -181,53 +183,17 @@ pub fn loss_and_grad<T: Gemm>(
     ws: &mut StepWorkspace<T>,
     grad: &mut ModelGrad<T>,
 ) -> (StepLosses, ScreenStats<T>) {
-    batch_loss_and_grad(model, &[view], opts, s, ws, grad)
-}
-
-/// Loss and gradient of one step on a batch of views (the released code's batch): the mean
-/// of their photometric terms ([`view_loss_and_grad`], weight `1/B` each) plus the
-/// regularisers once, at the first view's time ([`regularizers_and_grad`]). **Adds** the
-/// gradient into `grad`; the reported L1, SSIM and MSE are the views' means. The
-/// densification statistics follow the released code: the views' 2D-mean gradients are
-/// summed (their norm is taken later), a Gaussian counts as seen if any view sees it, and
-/// its screen radius is the largest over the views. One view gives bitwise the single-view
-/// step.
-///
-/// # Panics
-/// If `views` is empty.
-pub fn batch_loss_and_grad<T: Gemm>(
-    model: &mut Model<T>,
-    views: &[&ViewData<T>],
-    opts: &RenderOptions<T>,
-    s: &StepSettings,
-    ws: &mut StepWorkspace<T>,
-    grad: &mut ModelGrad<T>,
-) -> (StepLosses, ScreenStats<T>) {
-    assert!(!views.is_empty(), "a step needs at least one view");
-    let weight = 1.0 / views.len() as f64;
-    let mut losses = StepLosses::default();
-    let mut batch_stats: Option<ScreenStats<T>> = None;
-    for view in views {
-        let (l, st) = view_loss_and_grad(model, view, opts, s, weight, ws, grad);
-        losses.total += l.total;
-        losses.l1 += weight * l.l1;
-        losses.ssim += weight * l.ssim;
-        losses.mse += weight * l.mse;
-        losses.timings.add(&l.timings);
-        match &mut batch_stats {
-            None => batch_stats = Some(st),
-            Some(acc) => {
-                let seen = acc.grad2d.iter_mut().zip(&mut acc.radius);
-                for ((a, r), (g, q)) in seen.zip(st.grad2d.iter().zip(&st.radius)) {
-                    a[0] += g[0];
-                    a[1] += g[1];
-                    *r = (*r).max(*q);
-                }
-            }
-        }
-    }
-    regularizers_and_grad(model, views[0].time, s, ws, grad, &mut losses);
-    (losses, batch_stats.unwrap_or_default())
+    let (l, stats) = view_loss_and_grad(model, view, opts, s, 1.0, ws, grad);
+    let mut losses = StepLosses {
+        total: l.total,
+        l1: l.l1,
+        ssim: l.ssim,
+        mse: l.mse,
+        timings: l.timings,
+        ..StepLosses::default()
+    };
+    regularizers_and_grad(model, view.time, s, ws, grad, &mut losses);
+    (losses, stats)
 }
 
 /// The photometric term of one view, `weight·((1 − λ)·L1 + λ·(1 − SSIM))` (`weight` = 1/B

@@ -7,6 +7,8 @@
 //! are static (plain 3DGS); then the dynamics are switched on and the anchors are
 //! initialised by integrating the field from the canonical state.
 
+use super::batch::{BatchPart, ViewShare, shared_batch_loss_and_grad};
+use super::collective::{Collective, Solo};
 use super::densify::{DensifyReport, densify_and_prune, reset_opacity};
 use super::frames::TrainViews;
 use super::optim::StateGroups;
@@ -15,7 +17,7 @@ pub use super::state::LogRow;
 use super::state::TrainerState;
 use super::step::{
     StepLosses, StepSettings, StepWorkspace, TeacherSample, ViewData, accumulate_screen_stats,
-    batch_loss_and_grad,
+    loss_and_grad,
 };
 use crate::config::TrainConfig;
 use crate::field::regularize::PlaneRegWeights;
@@ -52,6 +54,15 @@ pub enum TrainError {
         /// The decode error (names the file).
         msg: String,
     },
+    /// The processes sharing the run could not exchange a step (a rank died or timed
+    /// out); nothing of this iteration was applied.
+    #[error("iteration {iteration}: {msg}")]
+    Collective {
+        /// Iteration.
+        iteration: u64,
+        /// What failed (names the rank where known).
+        msg: String,
+    },
 }
 
 /// What one iteration did.
@@ -85,6 +96,7 @@ pub struct Trainer {
     par: Par,
     ws: StepWorkspace<f32>,
     grad: Option<ModelGrad<f32>>,
+    shares: Vec<ViewShare<f32>>,
 }
 
 /// The training time range of `views` (a range of length 1 from a single time).
@@ -160,6 +172,7 @@ impl Trainer {
             par,
             ws: StepWorkspace::default(),
             grad: None,
+            shares: Vec::new(),
         })
     }
 
@@ -334,12 +347,42 @@ impl Trainer {
         }
     }
 
-    /// One iteration.
+    /// One iteration in one process.
     ///
     /// # Errors
     /// [`TrainError::NonFinite`] if the loss or a gradient is not finite, or
     /// [`TrainError::Frame`] if a frame cannot be decoded (nothing applied either way).
     pub fn step(&mut self) -> Result<StepReport, TrainError> {
+        self.step_with(&Solo)
+    }
+
+    /// Checks that the batch (`schedule.views_per_step`) splits evenly over the ranks of
+    /// `collective`.
+    ///
+    /// # Errors
+    /// [`TrainError::Setup`] naming both numbers.
+    pub fn check_collective(&self, collective: &dyn Collective) -> Result<(), TrainError> {
+        let (k, p) = (self.cfg.schedule.views_per_step.max(1), collective.size());
+        if k % p as u64 == 0 {
+            Ok(())
+        } else {
+            Err(TrainError::Setup(format!(
+                "schedule.views_per_step = {k} does not split over {p} processes: each \
+                 process computes K/P views of a step, so make it a multiple of {p}"
+            )))
+        }
+    }
+
+    /// One iteration, its batch of views spread over the ranks of `collective` (every rank
+    /// calls it at the same iteration and ends with the same parameters; one process with
+    /// the same batch gives the same bits).
+    ///
+    /// # Errors
+    /// As [`Trainer::step`], [`TrainError::Setup`] if the batch does not split over the
+    /// ranks ([`Trainer::check_collective`]), and [`TrainError::Collective`] if the ranks
+    /// cannot exchange the step.
+    pub fn step_with(&mut self, collective: &dyn Collective) -> Result<StepReport, TrainError> {
+        self.check_collective(collective)?;
         let start = Instant::now();
         let it = self.state.iteration + 1;
         let mut report = StepReport {
@@ -372,8 +415,11 @@ impl Trainer {
             })
             .collect();
         report.view_time = self.views.time(picks[0]);
-        st.sampler.prefetch(&self.views, &picks);
-        let batch_data = picks
+        // This rank's views: rank·K/P .. (rank+1)·K/P of the batch (only their frames load).
+        let m = picks.len() / collective.size();
+        let mine = &picks[collective.rank() * m..(collective.rank() + 1) * m];
+        st.sampler.prefetch(&self.views, mine);
+        let batch_data = mine
             .iter()
             .map(|&i| self.views.view(i))
             .collect::<Result<Vec<_>, _>>()
@@ -389,14 +435,33 @@ impl Trainer {
             _ => self.model.zero_grad(),
         };
         let batch_views: Vec<&ViewData<f32>> = batch_data.iter().collect();
-        let (losses, stats) = batch_loss_and_grad(
-            &mut self.model,
-            &batch_views,
-            &opts,
-            &settings,
-            &mut self.ws,
-            &mut grad,
-        );
+        let (losses, stats) = if picks.len() == 1 {
+            loss_and_grad(
+                &mut self.model,
+                batch_views[0],
+                &opts,
+                &settings,
+                &mut self.ws,
+                &mut grad,
+            )
+        } else {
+            let part = BatchPart {
+                batch: picks.len(),
+                first_time: report.view_time,
+                mine: &batch_views,
+            };
+            shared_batch_loss_and_grad(
+                &mut self.model,
+                part,
+                collective,
+                &opts,
+                &settings,
+                &mut self.ws,
+                &mut self.shares,
+                &mut grad,
+            )
+            .map_err(|msg| TrainError::Collective { iteration: it, msg })?
+        };
         let non_finite = |what| TrainError::NonFinite {
             iteration: it,
             what,

@@ -46,6 +46,7 @@ use super::plot::{BarGroup, save_bars};
 use super::train::{TrainArgs, resolve_config};
 use evogs::config::{Preset, TrainConfig};
 use evogs::model::Motion;
+use evogs::train::collective::{Collective, Solo, barrier};
 use progress::{ChannelReporter, Message, StudyProgress};
 use runner::{PlannedRun, RunState, execute, read_record, write_atomic};
 use std::path::{Path, PathBuf};
@@ -295,6 +296,23 @@ fn state_of(run: &PlannedRun, force: bool) -> Result<RunState, CommandError> {
 /// Bad arguments, data or configuration (all checked before any training), or a run that
 /// failed (finished runs stay reusable).
 pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcome, CommandError> {
+    run_study_with(args, rep, &Solo)?
+        .ok_or_else(|| CommandError::new("one process is rank 0 and writes the summary"))
+}
+
+/// [`run_study`] as one of the processes of `c` (`mpirun -np P evogs study ...`): every rank
+/// plans the same runs, rank `r` trains the pending runs `r, r + P, r + 2P, …` (each with the
+/// threads of its rank, `--jobs` at a time), and once all have finished rank 0 alone writes
+/// `study.json`, `study.md` and the figures from the runs' records (returned as `Some`; the
+/// other ranks return `None`). A rerun resumes unfinished runs as in one process.
+///
+/// # Errors
+/// As [`run_study`], or an exchange between the ranks that failed.
+pub fn run_study_with(
+    args: &StudyArgs,
+    rep: &mut dyn Reporter,
+    c: &dyn Collective,
+) -> Result<Option<StudyOutcome>, CommandError> {
     if args.protocols.is_empty() || args.motions.is_empty() {
         return Err(CommandError::new(
             "a study needs at least one protocol and one motion",
@@ -320,9 +338,14 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         .iter()
         .map(|p| p.held_out_sets(&ds))
         .collect::<Result<_, _>>()?;
-    check_writable(&args.out)?;
+    let writer = c.rank() == 0;
+    if writer {
+        check_writable(&args.out)?;
+    }
     let runs = plan(args, &data, &base)?;
-    if args.force {
+    // Every rank has planned from the folders as they were before rank 0 clears any.
+    barrier(c).map_err(CommandError::new)?;
+    if args.force && writer {
         for r in &runs {
             if r.args.out.exists() {
                 std::fs::remove_dir_all(&r.args.out)
@@ -330,12 +353,30 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
             }
         }
     }
+    barrier(c).map_err(CommandError::new)?;
     let threads = total_threads();
     let jobs = args.jobs.min(runs.len()).max(1);
     let per_job = (threads / jobs).max(1);
     let pending: Vec<usize> = (0..runs.len())
         .filter(|&i| runs[i].state != RunState::Done)
         .collect();
+    // This rank's share of the pending runs (all of them in one process).
+    let mine: Vec<usize> = pending
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|&(k, _)| k % c.size() == c.rank())
+        .map(|(_, i)| i)
+        .collect();
+    if c.size() > 1 {
+        rep.info(&format!(
+            "rank {} of {}: {} of the {} pending runs",
+            c.rank(),
+            c.size(),
+            mine.len(),
+            pending.len()
+        ));
+    }
     rep.info(&format!(
         "{} runs: {} to train, {} to resume, {} finished earlier; {jobs} at a time with {per_job} \
          thread(s) each",
@@ -346,7 +387,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
     ));
     let failure = train_pending(
         &runs,
-        &pending,
+        &mine,
         &ds,
         &sets,
         &args.protocols,
@@ -357,6 +398,11 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
     let reused = runs.len() - pending.len();
     if let Some(e) = failure {
         return Err(e);
+    }
+    // Every rank's runs have their records before rank 0 reads them.
+    barrier(c).map_err(CommandError::new)?;
+    if !writer {
+        return Ok(None);
     }
     // The table is built from the records as stored, for reused and new runs alike, so a
     // study that reuses every run reproduces its table exactly.
@@ -424,7 +470,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
     write_atomic(&json, text.as_bytes())?;
     write_atomic(&markdown, summary.markdown().as_bytes())?;
     write_chart(&summary, &chart)?;
-    Ok(StudyOutcome {
+    Ok(Some(StudyOutcome {
         summary,
         json,
         markdown,
@@ -433,7 +479,7 @@ pub fn run_study(args: &StudyArgs, rep: &mut dyn Reporter) -> Result<StudyOutcom
         contact_sheets,
         trained: pending.len(),
         reused,
-    })
+    }))
 }
 
 /// Trains the pending runs, `jobs` at a time, showing their progress on `rep` (each run

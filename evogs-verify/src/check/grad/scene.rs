@@ -12,9 +12,8 @@ use evogs::field::{HexPlaneConfig, NeuralField, NeuralFieldConfig, TimeMapping};
 use evogs::model::{
     HopLaw, HopRender, HopSettings, HopStart, Model, ModelGrad, Motion, Waypoints, render_options,
 };
-use evogs::train::step::{
-    StepLosses, StepSettings, StepWorkspace, TeacherSample, ViewData, batch_loss_and_grad,
-};
+use evogs::train::batch::batch_loss_and_grad;
+use evogs::train::step::{StepLosses, StepSettings, StepWorkspace, TeacherSample, ViewData};
 use evogs_math::activation::logit;
 use evogs_math::rng::SplitMix64;
 use evogs_math::{Par, Quat, Vec3};
