@@ -1,6 +1,6 @@
 //! The processes of one command under an MPI launcher (`mpirun -np K evogs ...`,
-//! `srun evogs ...`), with the `mpi` feature: [`Mpi`], the MPI implementation of evogs's
-//! [`Collective`].
+//! `srun evogs ...`), with the `mpi` feature: `Mpi`, the MPI implementation of evogs's
+//! [`Collective`](evogs::train::collective::Collective).
 //!
 //! Every exchange is an all-gather in rank order, started as a non-blocking collective and
 //! waited on with a deadline (`EVOGS_MPI_TIMEOUT` seconds, default 600): a rank that died or

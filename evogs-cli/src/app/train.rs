@@ -387,6 +387,7 @@ fn train_loop(
     rep.start("train", t.cfg().schedule.iterations);
     rep.progress(t.iteration(), "");
     let mut last_save = std::time::Instant::now();
+    let (mut exchange, mut stepping) = (0.0, 0.0);
     let all = |flags: [bool; 2]| -> CommandResult<[bool; 2]> {
         if c.size() == 1 {
             return Ok(flags);
@@ -399,6 +400,8 @@ fn train_loop(
     };
     while !t.finished() {
         let r = t.step_with(c).map_err(CommandError::new)?;
+        exchange += r.losses.timings.exchange;
+        stepping += r.seconds;
         if r.dynamics_started {
             rep.info(&format!(
                 "iteration {}: dynamics on ({:?} motion, {} Gaussians)",
@@ -441,6 +444,13 @@ fn train_loop(
     }
     save_checked(t, run, c)?;
     rep.finish();
+    if c.size() > 1 && stepping > 0.0 {
+        rep.info(&format!(
+            "exchanging and summing the batches' shares took {exchange:.2} s of {stepping:.2} s \
+             of iterations ({:.1} %)",
+            100.0 * exchange / stepping
+        ));
+    }
     Ok(())
 }
 

@@ -244,6 +244,7 @@ pub fn shared_batch_loss_and_grad(
         sh.losses = l;
         sh.stats = st;
     }
+    let clock = std::time::Instant::now();
     if size > 1 {
         let mut bytes = Vec::new();
         for sh in &shares[rank * m..(rank + 1) * m] {
@@ -265,6 +266,7 @@ pub fn shared_batch_loss_and_grad(
         }
     }
     let (mut losses, stats) = reduce_shares(shares, weight, grad);
+    local.exchange = clock.elapsed().as_secs_f64();
     losses.timings = local;
     regularizers_and_grad(model, part.first_time, s, ws, grad, &mut losses);
     Ok((losses, stats))

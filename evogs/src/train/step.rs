@@ -112,6 +112,9 @@ pub struct StepTimings {
     pub adjoint: f64,
     /// Regularisers, coherence and anchor loss.
     pub extra: f64,
+    /// Exchanging a batch's shares between processes and summing them
+    /// ([`shared_batch_loss_and_grad`](super::batch::shared_batch_loss_and_grad)).
+    pub exchange: f64,
 }
 
 impl StepTimings {
@@ -123,6 +126,7 @@ impl StepTimings {
         self.loss += o.loss;
         self.adjoint += o.adjoint;
         self.extra += o.extra;
+        self.exchange += o.exchange;
     }
 }
 
