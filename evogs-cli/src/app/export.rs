@@ -112,7 +112,7 @@ pub fn export_sequence(
             .check_time(t)
             .map_err(|e| CommandError::new(format!("--times: {e}")))?;
     }
-    std::fs::create_dir_all(out).doing(out, "cannot create")?;
+    let _lock = super::lock::FolderLock::acquire(out, "export --times")?;
     let n = times.2;
     let mut seq = Sequence {
         files: Vec::with_capacity(n),

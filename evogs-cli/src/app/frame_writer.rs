@@ -3,8 +3,9 @@
 //! atomically; an interrupt (SIGINT/SIGTERM) stops after the current frame, keeping the
 //! finished frames and leaving no partial GIF.
 
-use super::error::{CommandError, Context as _};
+use super::error::CommandError;
 use super::interrupt;
+use super::lock::FolderLock;
 use evogs::data::gif_writer::GifWriter;
 use evogs::data::image_io;
 use evogs_splat::Image;
@@ -19,6 +20,8 @@ pub struct FrameWriter {
     dir: PathBuf,
     gif: Option<(GifWriter, PathBuf)>,
     written: usize,
+    // Held while writing: one writer per folder.
+    _lock: FolderLock,
 }
 
 /// What a finished sequence left on disk.
@@ -45,12 +48,14 @@ fn frame_path(dir: &Path, i: usize) -> PathBuf {
 }
 
 impl FrameWriter {
-    /// Creates the folder (and its parents) and, with `gif_name`, starts `dir/gif_name`.
+    /// Creates the folder (and its parents), locks it ([`FolderLock`]) and, with
+    /// `gif_name`, starts `dir/gif_name`.
     ///
     /// # Errors
-    /// The folder or the GIF's temporary file cannot be created.
+    /// The folder or the GIF's temporary file cannot be created, or another process is
+    /// writing to the folder.
     pub fn create(dir: &Path, gif_name: Option<&str>) -> Result<Self, CommandError> {
-        std::fs::create_dir_all(dir).doing(dir, "cannot create")?;
+        let lock = FolderLock::acquire(dir, "render")?;
         let gif = match gif_name {
             Some(name) => {
                 let p = dir.join(name);
@@ -63,6 +68,7 @@ impl FrameWriter {
             dir: dir.to_path_buf(),
             gif,
             written: 0,
+            _lock: lock,
         })
     }
 

@@ -12,6 +12,7 @@ pub mod frame_writer;
 pub mod inject;
 pub mod interrupt;
 pub mod load;
+pub mod lock;
 pub mod paths;
 pub mod plot;
 pub mod render;

@@ -4,6 +4,7 @@
 pub use super::counts::positive_count;
 use super::error::{CommandError, CommandResult, Context as _};
 use super::load::load_dataset;
+use super::lock::FolderLock;
 use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
 use super::{Reporter, interrupt, plot};
@@ -315,8 +316,8 @@ fn prepare_folder(args: &TrainArgs, plan: &Plan) -> CommandResult<()> {
         .at(&run.data_ref())
 }
 
-/// Loads the dataset, takes the protocol's training views, prepares the run folder (rank 0,
-/// only once the data is known to be good), and starts the trainer: continued from the folder's
+/// Loads the dataset, takes the protocol's training views, locks and prepares the run
+/// folder (rank 0, only once the data is known to be good), and starts the trainer: continued from the folder's
 /// checkpoint, or new from the dataset's initial points (with a note saying where they come
 /// from).
 fn start(
@@ -324,7 +325,7 @@ fn start(
     plan: &Plan,
     rep: &mut dyn Reporter,
     c: &dyn Collective,
-) -> CommandResult<(Trainer, Dataset)> {
+) -> CommandResult<(Trainer, Dataset, Option<FolderLock>)> {
     rep.info(&format!("data: {}", plan.data_dir.display()));
     // Over several processes each rank decodes only the frames of its views, when it uses
     // them (through the frame cache).
@@ -340,9 +341,22 @@ fn start(
         ds.format,
         frames_note(&ds, &plan.cfg)
     ));
-    if c.rank() == 0 {
+    let lock = if c.rank() == 0 {
+        let lock = FolderLock::acquire(&plan.run.dir, "train")?;
+        // Planned before the lock: a run another process finished meanwhile is not
+        // trained over.
+        if !args.resume && !args.force && plan.run.checkpoint().is_file() {
+            return Err(CommandError::at(
+                &plan.run.dir,
+                "the folder holds a trained run (a checkpoint); pass --resume to continue it \
+                 or --force to replace it",
+            ));
+        }
         prepare_folder(args, plan)?;
-    }
+        Some(lock)
+    } else {
+        None
+    };
     let mut t = if plan.resuming {
         let t = checkpoint::resume(&plan.run.checkpoint(), views).map_err(CommandError::new)?;
         rep.info(&format!("resuming at iteration {}", t.iteration()));
@@ -356,7 +370,7 @@ fn start(
         Trainer::new(plan.cfg.clone(), views, pts).map_err(CommandError::new)?
     };
     t.set_total_iterations(plan.cfg.schedule.iterations);
-    Ok((t, ds))
+    Ok((t, ds, lock))
 }
 
 /// Writes a checkpoint and the log (rank 0 of several processes, after every rank has shown
@@ -524,7 +538,8 @@ pub fn train_with(
 ) -> CommandResult<TrainOutcome> {
     let plan = plan_run(args, rep)?;
     let writer = c.rank() == 0;
-    let (mut t, ds) = start(args, &plan, rep, c)?;
+    // Held to the end: rank 0 is the folder's one writer.
+    let (mut t, ds, _lock) = start(args, &plan, rep, c)?;
     t.check_collective(c).map_err(CommandError::new)?;
     if c.size() > 1 {
         // Every rank has its data and model (and rank 0 its folder) before the first step.

@@ -41,6 +41,7 @@ use super::Reporter;
 use super::counts::{positive_count, positive_size};
 use super::error::{CommandError, Context as _};
 use super::load::load_dataset;
+use super::lock::FolderLock;
 use super::paths::{RunFolder, shipped_scene};
 use super::plot::{BarGroup, save_bars};
 use super::train::{TrainArgs, resolve_config};
@@ -339,9 +340,12 @@ pub fn run_study_with(
         .map(|p| p.held_out_sets(&ds))
         .collect::<Result<_, _>>()?;
     let writer = c.rank() == 0;
-    if writer {
+    let _lock = if writer {
         check_writable(&args.out)?;
-    }
+        Some(FolderLock::acquire(&args.out, "study")?)
+    } else {
+        None
+    };
     let runs = plan(args, &data, &base)?;
     // Every rank has planned from the folders as they were before rank 0 clears any.
     barrier(c).map_err(CommandError::new)?;
