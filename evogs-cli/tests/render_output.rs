@@ -27,10 +27,13 @@ impl Reporter for InterruptAt {
     fn info(&mut self, _: &str) {}
 }
 
+/// The folder's files, but for the writer's lock file (`.evogs.lock`, which stays: the
+/// lock is the operating system's and goes with the process).
 fn listing(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .expect("list")
         .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .filter(|n| n != evogs_cli::app::lock::LOCK_FILE)
         .collect();
     v.sort();
     v
