@@ -2,8 +2,9 @@
 //!
 //! One iteration: pick the next supervised view (a fresh random permutation each epoch),
 //! compute the loss and its exact gradient ([`loss_and_grad`], or a batch of views spread
-//! over processes), refuse non-finite values, take an Adam step, then the periodic tasks: SH-degree increments, densification and
-//! pruning, opacity resets, snapshot-anchor refreshes. The first `warmup_iters` iterations
+//! over processes), refuse non-finite values, take an Adam step, then the periodic tasks:
+//! SH-degree increments, densification and pruning, opacity resets, snapshot-anchor
+//! refreshes. The first `warmup_iters` iterations
 //! are static (plain 3DGS); then the dynamics are switched on and the anchors are
 //! initialised by integrating the field from the canonical state.
 
