@@ -48,6 +48,12 @@ pub struct TrainConfig {
 /// Top-level tables of the motion searches, which were removed: stored run configurations
 /// may still hold them ([`TrainConfig::from_run_toml`] drops them), a configuration file given
 /// to a new run may not ([`TrainConfig::merge_toml`] names them).
+/// The largest field memory a configuration may ask for (64 GiB: the paper's field needs
+/// 38 MB), checked before anything is allocated.
+pub const MAX_FIELD_BYTES: f64 = 64.0 * GIB;
+
+const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
+
 const REMOVED_SECTIONS: [&str; 2] = ["spin_search", "orbit_search"];
 
 impl TrainConfig {
@@ -347,6 +353,17 @@ impl TrainConfig {
         )?;
         chk(self.field.width > 0, "field.width must be at least 1")?;
         chk(
+            self.field.hexplane.multires.iter().all(|&m| m >= 1),
+            "field.hexplane.multires entries must be at least 1 (spatial resolution multipliers)",
+        )?;
+        self.check_field_memory()?;
+        chk(
+            self.loss.lambda_coherence == 0.0 || self.loss.coherence_samples >= 2,
+            "loss.coherence_samples must be at least 2 when loss.lambda_coherence is not 0 \
+             (the coherence loss compares pairs of sampled Gaussians; set the weight to 0 to \
+             switch it off)",
+        )?;
+        chk(
             self.schedule.warmup_iters <= self.schedule.iterations,
             "schedule.warmup_iters must not exceed schedule.iterations",
         )?;
@@ -377,6 +394,52 @@ impl TrainConfig {
             (0.0..=1.0).contains(&self.loss.lambda_ssim),
             "loss.lambda_ssim must be in [0, 1]",
         )
+    }
+
+    /// The field's memory, estimated from its shape before anything is allocated: the
+    /// HexPlane's values and the MLP's weights (a second copy with continuous waypoints),
+    /// each held four times in f32 (parameters, gradient, Adam's two moments). Refused above
+    /// [`MAX_FIELD_BYTES`], with the estimate.
+    fn check_field_memory(&self) -> Result<(), String> {
+        let f = &self.field;
+        let levels = f.hexplane.multires.len();
+        let planes = f.hexplane.param_count();
+        let mlp = (|| {
+            let w = f.width;
+            let input = f.hexplane.channels.checked_mul(levels)?;
+            let trunk = w.checked_mul(input.checked_add(1)?)?;
+            let heads = w.checked_mul(w.checked_add(1)?)?.checked_mul(3)?;
+            trunk.checked_add(heads)?.checked_add(w.checked_mul(12)?)
+        })();
+        let copies = if self.dynamics.waypoints == Waypoints::Continuous {
+            2.0
+        } else {
+            1.0
+        };
+        let bytes = match (planes, mlp) {
+            (Some(p), Some(m)) => copies * 16.0 * (p as f64 + m as f64),
+            _ => f64::INFINITY,
+        };
+        if bytes <= MAX_FIELD_BYTES {
+            return Ok(());
+        }
+        let shape = format!(
+            "field.width = {}, field.hexplane.channels = {}, resolution = {:?}, multires = {:?}",
+            f.width, f.hexplane.channels, f.hexplane.resolution, f.hexplane.multires
+        );
+        Err(if bytes.is_finite() {
+            format!(
+                "{shape}: the field would need about {:.1} GiB (parameters, gradient and Adam's \
+                 moments in f32), more than the {:.0} GiB evogs accepts; lower the resolution, \
+                 channels or width",
+                bytes / GIB,
+                MAX_FIELD_BYTES / GIB
+            )
+        } else {
+            format!(
+                "{shape}: the field's size does not fit in memory at all; lower the resolution, channels or width"
+            )
+        })
     }
 
     /// Every real-valued setting is finite and in its range: rates and loss weights are
@@ -593,6 +656,52 @@ mod tests {
         for m in &messages {
             assert!(!m.contains("  ") && !m.contains('\n'), "`{m}`");
         }
+    }
+
+    #[test]
+    fn fields_too_large_to_allocate_are_refused_with_an_estimate_before_any_allocation() {
+        let c = TrainConfig::fast();
+        for (overlay, says) in [
+            ("[field]\nwidth = 1000000000\n", "GiB"),
+            ("[field]\nwidth = 10000000000\n", "does not fit in memory"),
+            ("[field]\nwidth = 100000\n", "GiB"),
+            (
+                "[field.hexplane]\nresolution = [100000, 100000, 100000, 16]\n",
+                "GiB",
+            ),
+            ("[field.hexplane]\nmultires = [0]\n", "at least 1"),
+            (
+                "[field.hexplane]\nmultires = [1, 9223372036854775807]\n",
+                "does not fit",
+            ),
+        ] {
+            let cfg = c.merge_toml(overlay).expect("reads");
+            let e = cfg.validate().expect_err(overlay);
+            assert!(e.contains(says), "{overlay}: {e}");
+        }
+        let e = c
+            .merge_toml("[field]\nwidth = 100000\n")
+            .expect("reads")
+            .validate()
+            .expect_err("too wide");
+        assert!(
+            e.contains("field.width = 100000") && e.contains("more than the 64 GiB"),
+            "{e}"
+        );
+        assert!(
+            TrainConfig::paper().validate().is_ok(),
+            "the paper's field fits"
+        );
+        let e = c
+            .merge_toml("[loss]\nlambda_coherence = 0.01\ncoherence_samples = 0\n")
+            .expect("reads")
+            .validate()
+            .expect_err("coherence on with no samples");
+        assert!(e.contains("loss.coherence_samples"), "{e}");
+        c.merge_toml("[loss]\nlambda_coherence = 0.0\ncoherence_samples = 0\n")
+            .expect("reads")
+            .validate()
+            .expect("coherence off");
     }
 
     #[test]

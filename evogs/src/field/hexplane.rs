@@ -78,6 +78,32 @@ pub struct HexPlaneConfig {
     pub multires: Vec<usize>,
 }
 
+impl HexPlaneConfig {
+    /// Number of plane values this shape holds (what [`HexPlane::new`] lays out), or `None`
+    /// if a level multiplier is 0 or the count does not fit a `usize`: computed without
+    /// allocating, so that a configuration can be checked before anything is built.
+    #[must_use]
+    pub fn param_count(&self) -> Option<usize> {
+        let mut total: usize = 0;
+        for &m in &self.multires {
+            if m == 0 {
+                return None;
+            }
+            let res = [
+                self.resolution[0].checked_mul(m)?,
+                self.resolution[1].checked_mul(m)?,
+                self.resolution[2].checked_mul(m)?,
+                self.resolution[3],
+            ];
+            for &(i, j) in &PLANE_AXES {
+                let plane = res[i].checked_mul(res[j])?.checked_mul(self.channels)?;
+                total = total.checked_add(plane)?;
+            }
+        }
+        Some(total)
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct PlaneLayout {
     offset: usize,
