@@ -541,6 +541,27 @@ fn build(c: &mut Cases) {
         ),
         ("not toml", "[optim\nfeature_lr = 0.1\n", "tiny.toml"),
         ("field width zero", "[field]\nwidth = 0\n", "width"),
+        ("field width 1e9", "[field]\nwidth = 1000000000\n", "GiB"),
+        (
+            "field width 1e10",
+            "[field]\nwidth = 10000000000\n",
+            "does not fit in memory",
+        ),
+        (
+            "hexplane resolution 100000",
+            "[field.hexplane]\nresolution = [100000, 100000, 100000, 16]\n",
+            "GiB",
+        ),
+        (
+            "hexplane multires zero",
+            "[field.hexplane]\nmultires = [0]\n",
+            "multires",
+        ),
+        (
+            "coherence with no samples",
+            "[loss]\nlambda_coherence = 0.01\ncoherence_samples = 0\n",
+            "coherence_samples",
+        ),
         ("cache zero", "[data]\ncache_mb = 0\n", "cache_mb"),
         ("sh degree nine", "[init]\nsh_degree = 9\n", "sh_degree"),
         ("unknown method", "[dynamics]\nmethod = \"rk9\"\n", "rk9"),
