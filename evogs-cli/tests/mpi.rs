@@ -30,11 +30,17 @@ until_iter = 45
 interval = 15
 ";
 
+/// `mpirun` from the PATH, or `None` after saying that the test is skipped.
 fn launcher() -> Option<PathBuf> {
-    let path = std::env::var_os("PATH")?;
-    std::env::split_paths(&path)
-        .map(|d| d.join("mpirun"))
-        .find(|p| p.is_file())
+    let found = std::env::var_os("PATH").and_then(|path| {
+        std::env::split_paths(&path)
+            .map(|d| d.join("mpirun"))
+            .find(|p| p.is_file())
+    });
+    if found.is_none() {
+        eprintln!("skipped: no mpirun on the PATH (install Open MPI or MPICH)");
+    }
+    found
 }
 
 fn evogs() -> &'static str {
@@ -145,7 +151,6 @@ fn losses(run: &Path) -> Vec<String> {
 #[test]
 fn two_ranks_train_the_bits_of_one_process_with_a_batch_of_two() {
     let Some(mpi) = launcher() else {
-        eprintln!("skipped: no mpirun on the PATH (install Open MPI or MPICH)");
         return;
     };
     let dir = common::scratch("mpi-train");
@@ -214,7 +219,6 @@ fn two_ranks_train_the_bits_of_one_process_with_a_batch_of_two() {
 #[test]
 fn two_ranks_share_the_runs_of_a_study_and_rank_0_writes_the_summary() {
     let Some(mpi) = launcher() else {
-        eprintln!("skipped: no mpirun on the PATH (install Open MPI or MPICH)");
         return;
     };
     let dir = common::scratch("mpi-study");
@@ -261,7 +265,6 @@ fn two_ranks_share_the_runs_of_a_study_and_rank_0_writes_the_summary() {
 #[test]
 fn an_interrupt_stops_every_rank_with_a_checkpoint_and_resume_ends_bit_for_bit() {
     let Some(mpi) = launcher() else {
-        eprintln!("skipped: no mpirun on the PATH (install Open MPI or MPICH)");
         return;
     };
     let dir = common::scratch("mpi-resume");
@@ -314,7 +317,6 @@ fn an_interrupt_stops_every_rank_with_a_checkpoint_and_resume_ends_bit_for_bit()
 #[test]
 fn a_rank_that_stops_answering_ends_the_job_with_an_error() {
     let Some(mpi) = launcher() else {
-        eprintln!("skipped: no mpirun on the PATH (install Open MPI or MPICH)");
         return;
     };
     let dir = common::scratch("mpi-hang");

@@ -35,6 +35,7 @@ pub mod data;
 pub mod eval;
 pub mod extrapolate;
 pub mod field;
+pub mod fnv;
 pub mod model;
 pub mod run;
 pub mod scenes;

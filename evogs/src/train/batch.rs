@@ -259,10 +259,17 @@ pub fn shared_batch_loss_and_grad(
             ));
         }
         let n = model.len();
-        // This rank's own shares come back from their exact encoding: the same bits.
-        let mut at = 0;
-        for sh in shares.iter_mut() {
-            at += sh.decode(&all[at..], n)?;
+        // Every other rank's shares, decoded in place; this rank's own are already there
+        // (the same bits as their encoding).
+        let per_rank = bytes.len();
+        for (r, chunk) in all.chunks_exact(per_rank).enumerate() {
+            if r == rank {
+                continue;
+            }
+            let mut at = 0;
+            for sh in &mut shares[r * m..(r + 1) * m] {
+                at += sh.decode(&chunk[at..], n)?;
+            }
         }
     }
     let (mut losses, stats) = reduce_shares(shares, weight, grad);

@@ -7,6 +7,8 @@
 //! same order, so every rank holds the same parameters and the result does not depend on
 //! timing (an all-reduce would leave the summation order to the library).
 
+use crate::fnv::Fnv1a;
+
 /// A group of processes that train one run together (ranks `0..size`).
 pub trait Collective {
     /// This process's rank, `0..size`.
@@ -89,14 +91,11 @@ pub fn agree(c: &dyn Collective, what: &str, hash: u64) -> Result<(), String> {
 /// FNV-1a (64 bit) of a sequence of `f32` values by their bits, as [`agree`] compares.
 #[must_use]
 pub fn hash_f32(values: impl IntoIterator<Item = f32>) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for v in values {
-        for b in v.to_bits().to_le_bytes() {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    }
-    h
+    let mut h = Fnv1a::default();
+    values
+        .into_iter()
+        .for_each(|v| h.write(&v.to_bits().to_le_bytes()));
+    h.finish()
 }
 
 /// [`hash_f32`] of every parameter of `model` (canonical Gaussians, anchors, fields) in the
@@ -113,9 +112,9 @@ pub fn parameter_hash(model: &crate::model::Model<f32>) -> u64 {
             .as_ref()
             .map_or_else(Vec::new, |f| f.params().to_vec()),
     };
-    let mut values = Vec::with_capacity(params.value_count());
-    params.for_each(|v| values.push(v));
-    hash_f32(values)
+    let mut h = Fnv1a::default();
+    params.for_each(|v| h.write(&v.to_bits().to_le_bytes()));
+    h.finish()
 }
 
 #[cfg(test)]

@@ -151,15 +151,11 @@ pub fn parse_motions(s: &str) -> Result<Vec<Motion>, String> {
     Ok(out)
 }
 
-/// FNV-1a (64 bit) of a text, as 16 hex digits: an identity check of configurations, not a
-/// cryptographic hash (a well-known six-line function; no dependency needed).
+/// FNV-1a (64 bit) of a text, as 16 hex digits: an identity check of configurations.
 fn config_hash(text: &str) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in text.bytes() {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    format!("{h:016x}")
+    let mut h = evogs::fnv::Fnv1a::default();
+    h.write(text.as_bytes());
+    format!("{:016x}", h.finish())
 }
 
 /// The CPU model and logical CPU count of this machine.
