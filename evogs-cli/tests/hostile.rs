@@ -417,15 +417,7 @@ fn build(c: &mut Cases) {
     ] {
         c.add(
             name,
-            &[
-                &"eval",
-                &"--run",
-                &run,
-                &"--time-range",
-                &range,
-                &"--data",
-                d,
-            ],
+            &[&"eval", &"--run", &run, &"--time-range", &range],
             &["--time-range"],
             &[&run.join("metrics-test-t5-6.json")],
         );
@@ -1146,6 +1138,263 @@ fn build(c: &mut Cases) {
             &["data.txt"],
             &[&frames],
         );
+    }
+    // ---- resume continues exactly what it says it continues
+    {
+        let resume_flags: &[(&str, &[&str], &[&str])] = &[
+            (
+                "resume with another motion",
+                &["--motion", "deformation"],
+                &["dynamics.motion", "--motion"],
+            ),
+            (
+                "resume with another seed",
+                &["--seed", "99"],
+                &["seed is", "--seed"],
+            ),
+            (
+                "resume with another protocol",
+                &["--protocol", "sparse"],
+                &["data.protocol", "--protocol"],
+            ),
+            (
+                "resume with another stride",
+                &["--stride", "7"],
+                &["data.stride", "--stride"],
+            ),
+            (
+                "resume with another split time",
+                &["--split-time", "0.3"],
+                &["data.split_time"],
+            ),
+            (
+                "resume with another preset",
+                &["--preset", "paper"],
+                &["--preset paper"],
+            ),
+        ];
+        for (name, flags, expect) in resume_flags {
+            let r = c.dir("resume-flag");
+            common::copy_tree(&run, &r);
+            let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
+                vec![&"train", &"--out", &r, &"--resume", &"--iters", &"7"];
+            for f in *flags {
+                args.push(f);
+            }
+            c.add(name, &args, expect, &[]);
+        }
+        let r = c.dir("resume-config-file");
+        common::copy_tree(&run, &r);
+        let wider = r.join("wider.toml");
+        std::fs::write(&wider, "[field]\nwidth = 24\n").expect("cfg");
+        c.add(
+            "resume with a --config of another width",
+            &[&"train", &"--out", &r, &"--resume", &"--config", &wider],
+            &["field.width", "wider.toml"],
+            &[],
+        );
+        for (name, key, value, expect) in [
+            (
+                "resume after editing the width",
+                "width = ",
+                "width = 24",
+                "field.width",
+            ),
+            (
+                "resume after editing a rate",
+                "position_lr_init = ",
+                "position_lr_init = 0.5",
+                "optim.position_lr_init",
+            ),
+            (
+                "resume after editing the motion",
+                "motion = ",
+                "motion = \"static\"",
+                "dynamics.motion",
+            ),
+            (
+                "resume after editing the SH degree",
+                "sh_degree = ",
+                "sh_degree = 0",
+                "sh_degree",
+            ),
+        ] {
+            let r = c.dir("resume-edited");
+            common::copy_tree(&run, &r);
+            let path = r.join("config.toml");
+            let text = std::fs::read_to_string(&path).expect("config");
+            let edited: String = text
+                .lines()
+                .map(|l| {
+                    if l.starts_with(key) {
+                        value.to_string()
+                    } else {
+                        l.to_string()
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join("\n");
+            assert_ne!(edited.trim(), text.trim(), "{name}: the edit applies");
+            std::fs::write(&path, edited).expect("config");
+            c.add(
+                name,
+                &[&"train", &"--out", &r, &"--resume"],
+                &[expect, "config.toml"],
+                &[],
+            );
+        }
+        // Another scene: the small scene's three frames are other training views.
+        let r = c.dir("resume-other-data");
+        common::copy_tree(&run, &r);
+        c.add(
+            "resume with --data of another scene",
+            &[&"train", &"--out", &r, &"--resume", &"--data", d],
+            &["other training views", "--data"],
+            &[],
+        );
+        let r = c.dir("resume-data-record");
+        common::copy_tree(&run, &r);
+        std::fs::write(r.join("data.txt"), d.display().to_string()).expect("record");
+        c.add(
+            "resume after the data record changed",
+            &[&"train", &"--out", &r, &"--resume"],
+            &["other training views"],
+            &[],
+        );
+        let r = c.dir("eval-other-data");
+        common::copy_tree(&run, &r);
+        let metrics = r.join("metrics-test.json");
+        c.add(
+            "eval against another scene",
+            &[&"eval", &"--run", &r, &"--data", d],
+            &["other training views"],
+            &[&metrics],
+        );
+    }
+
+    // ---- paths that are not regular files
+    {
+        let x = c.dir("not-files");
+        let folder = x.join("a-folder.toml");
+        std::fs::create_dir_all(&folder).expect("folder");
+        let out = x.join("out");
+        c.add(
+            "config that is a folder",
+            &[&"train", &"--data", d, &"--out", &out, &"--config", &folder],
+            &["a-folder.toml", "is a folder"],
+            &[&out],
+        );
+        c.add(
+            "config that is a device",
+            &[
+                &"train",
+                &"--data",
+                d,
+                &"--out",
+                &out,
+                &"--config",
+                &"/dev/zero",
+            ],
+            &["/dev/zero", "is a device"],
+            &[&out],
+        );
+        c.add(
+            "verify a device",
+            &[&"verify", &"/dev/zero"],
+            &["/dev/zero", "is a device"],
+            &[],
+        );
+        c.add(
+            "verify a folder",
+            &[&"verify", &folder],
+            &["is a folder"],
+            &[],
+        );
+        c.add(
+            "data that is a file",
+            &[
+                &"train",
+                &"--data",
+                &tiny,
+                &"--out",
+                &out,
+                &"--config",
+                &tiny,
+            ],
+            &["this is a file", "dataset is a folder"],
+            &[&out],
+        );
+        c.add(
+            "eval with data that is a file",
+            &[&"eval", &"--run", &run, &"--data", &tiny],
+            &["this is a file"],
+            &[],
+        );
+        let (la, lb) = (x.join("loop-a.toml"), x.join("loop-b.toml"));
+        std::os::unix::fs::symlink(&lb, &la).expect("link");
+        std::os::unix::fs::symlink(&la, &lb).expect("link");
+        c.add(
+            "config that is a symlink loop",
+            &[&"train", &"--data", d, &"--out", &out, &"--config", &la],
+            &["loop-a.toml", "loop of symbolic links"],
+            &[&out],
+        );
+        c.add(
+            "verify a symlink loop",
+            &[&"verify", &la],
+            &["loop-a.toml", "loop of symbolic links"],
+            &[],
+        );
+        let fifo = x.join("pipe.toml");
+        if std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .is_ok_and(|s| s.success())
+        {
+            c.add(
+                "config that is a FIFO",
+                &[&"train", &"--data", d, &"--out", &out, &"--config", &fifo],
+                &["pipe.toml", "FIFO"],
+                &[&out],
+            );
+            c.add(
+                "verify a FIFO",
+                &[&"verify", &fifo],
+                &["pipe.toml", "FIFO"],
+                &[],
+            );
+        }
+        let huge = x.join("huge.toml");
+        std::fs::write(&huge, vec![b'#'; (1 << 20) + 1]).expect("huge");
+        c.add(
+            "config larger than a configuration can be",
+            &[&"train", &"--data", d, &"--out", &out, &"--config", &huge],
+            &["huge.toml", "at most 1048576 bytes"],
+            &[&out],
+        );
+        let s = c.dir("transforms-folder");
+        small_scene(&s);
+        std::fs::remove_file(s.join("transforms_train.json")).expect("rm");
+        std::fs::create_dir_all(s.join("transforms_train.json")).expect("folder");
+        c.add(
+            "transforms file that is a folder",
+            &[&"train", &"--data", &s, &"--out", &out, &"--config", &tiny],
+            &["transforms_train.json", "is a folder"],
+            &[&out],
+        );
+        let s = c.dir("frame-folder");
+        small_scene(&s);
+        let frame = s.join("train").join("r_000.png");
+        if frame.is_file() {
+            std::fs::remove_file(&frame).expect("rm");
+            std::fs::create_dir_all(&frame).expect("folder");
+            c.add(
+                "frame that is a folder",
+                &[&"train", &"--data", &s, &"--out", &out, &"--config", &tiny],
+                &["r_000.png", "folder"],
+                &[&out],
+            );
+        }
     }
     {
         let x = c.dir("export-dir");

@@ -30,6 +30,7 @@
 //! The library never prints: long work reports through callbacks, and errors are typed.
 
 pub mod atomic;
+pub mod bounded;
 pub mod config;
 pub mod data;
 pub mod eval;

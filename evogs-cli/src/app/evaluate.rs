@@ -9,7 +9,7 @@ use super::load::load_dataset;
 use super::paths::RunFolder;
 use super::plot::{TimePanel, TimeSeries, TrainingMarks, save_time_plot};
 use evogs::config::DataConfig;
-use evogs::data::{DataFormat, SplitName, View};
+use evogs::data::{DataFormat, DataIdentity, SplitName, View};
 use evogs::eval::dynamic::MotionMasks;
 use evogs::eval::table::frames_csv;
 use evogs::eval::{SplitMetrics, evaluate_views_masked};
@@ -106,6 +106,28 @@ pub fn evaluate_run(
     }
     // Images are decoded as each view is evaluated (one frame in memory at a time).
     let ds = load_dataset(&dir, &cfg, false)?;
+    let now = DataIdentity::of(&ds);
+    match &l.meta.data {
+        Some(trained) if !trained.same_data(&now) => {
+            return Err(CommandError::at(
+                &folder.checkpoint(),
+                format!(
+                    "the run was trained on {}, and {} holds other training views ({}): its \
+                     metrics would describe another scene than the run's own; evaluate with \
+                     the run's data (a moved copy of it is accepted)",
+                    trained.describe(),
+                    dir.display(),
+                    now.describe()
+                ),
+            ));
+        }
+        Some(_) => {}
+        None => rep.info(&format!(
+            "note: the checkpoint does not record its training data (written by an earlier \
+             evogs), so {} cannot be compared with it",
+            dir.display()
+        )),
+    }
     let views = ds.split(split);
     if views.is_empty() {
         return Err(CommandError::new(format!(

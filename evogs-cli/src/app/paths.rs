@@ -1,6 +1,6 @@
 //! Run-folder layout and the shipped scene.
 
-use super::error::{CommandResult, Context as _};
+use super::error::{CommandError, CommandResult, Context as _};
 use std::path::{Path, PathBuf};
 
 /// The files of a run folder.
@@ -96,10 +96,9 @@ impl RunFolder {
     /// A missing or unreadable record.
     pub fn data_dir(&self) -> CommandResult<PathBuf> {
         let p = self.data_ref();
-        std::fs::read_to_string(&p)
+        evogs::bounded::read_text(&p, 1 << 16, "the run's dataset record")
             .map(|s| PathBuf::from(s.trim()))
-            .map_err(|e| format!("{e} (pass --data)"))
-            .doing(&p, "cannot read the run's dataset path")
+            .map_err(|e| CommandError::new(format!("{e} (pass --data)")))
     }
 }
 

@@ -8,8 +8,9 @@ use super::lock::FolderLock;
 use super::paths::{RunFolder, shipped_scene};
 use super::render::{CameraPath, RenderArgs, render_sequence};
 use super::{Reporter, interrupt, plot};
+use evogs::config::changes;
 use evogs::config::{Preset, Protocol, ScheduleConfig, TrainConfig};
-use evogs::data::{DataFormat, Dataset, SplitName};
+use evogs::data::{DataFormat, DataIdentity, Dataset, SplitName};
 use evogs::eval::{SplitMetrics, evaluate};
 use evogs::model::Motion;
 use evogs::run::checkpoint;
@@ -97,11 +98,32 @@ pub struct TrainOutcome {
 pub fn resolve_config(args: &TrainArgs) -> CommandResult<TrainConfig> {
     let mut cfg = TrainConfig::from_preset(args.preset.unwrap_or_default());
     if let Some(p) = &args.config {
-        let text = std::fs::read_to_string(p).doing(p, "cannot read")?;
-        cfg = cfg.merge_toml(&text).at(p)?;
+        cfg = merge_file(&cfg, p)?;
         // The file's values are checked as the file's, before the flags override them.
         cfg.validate().at(p)?;
     }
+    apply_flags(&mut cfg, args, true);
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+/// `cfg` with the TOML file `path` overlaid.
+fn merge_file(cfg: &TrainConfig, path: &Path) -> CommandResult<TrainConfig> {
+    let text = read_config_text(path)?;
+    cfg.merge_toml(&text).at(path)
+}
+
+/// The text of a configuration file (at most 1 MiB; a folder, a FIFO or a device is refused).
+fn read_config_text(path: &Path) -> CommandResult<String> {
+    evogs::bounded::read_text(path, evogs::bounded::CONFIG_BYTES, "a configuration file")
+        .map_err(CommandError::new)
+}
+
+/// Applies the configuration flags (`--motion`, `--protocol`, `--stride`, `--split-time`,
+/// `--iters`, `--seed`, `--format`). With `shorten`, `--iters` also shortens the warm-up and
+/// the temporal curriculum to fit (a new run); without, it sets the iteration count alone
+/// (a resumed run, whose schedule is its checkpoint's).
+fn apply_flags(cfg: &mut TrainConfig, args: &TrainArgs, shorten: bool) {
     if let Some(m) = args.motion {
         cfg.dynamics.motion = m;
     }
@@ -116,11 +138,13 @@ pub fn resolve_config(args: &TrainArgs) -> CommandResult<TrainConfig> {
     }
     if let Some(n) = args.iters {
         cfg.schedule.iterations = n;
-        cfg.schedule.warmup_iters = cfg.schedule.warmup_iters.min(n);
-        cfg.schedule.curriculum_iters = cfg
-            .schedule
-            .curriculum_iters
-            .min(n - cfg.schedule.warmup_iters);
+        if shorten {
+            cfg.schedule.warmup_iters = cfg.schedule.warmup_iters.min(n);
+            cfg.schedule.curriculum_iters = cfg
+                .schedule
+                .curriculum_iters
+                .min(n - cfg.schedule.warmup_iters);
+        }
     }
     if let Some(s) = args.seed {
         cfg.seed = s;
@@ -128,8 +152,100 @@ pub fn resolve_config(args: &TrainArgs) -> CommandResult<TrainConfig> {
     if let Some(f) = args.format {
         cfg.data.format = f;
     }
-    cfg.validate()?;
-    Ok(cfg)
+}
+
+/// The flag that sets a configuration key ([`apply_flags`]).
+fn flag_of(key: &str) -> &'static str {
+    match key {
+        "dynamics.motion" => "--motion",
+        "data.protocol" => "--protocol",
+        "data.stride" => "--stride",
+        "data.split_time" => "--split-time",
+        "schedule.iterations" => "--iters",
+        "seed" => "--seed",
+        "data.format" => "--format",
+        _ => "the command line",
+    }
+}
+
+/// The configuration a resumed run continues with, checked against its checkpoint's
+/// (`ckpt`). What the run is asked for is the folder's `config.toml` (or `--preset`'s
+/// values when given), then `--config`, then the flags. A difference a resume may take
+/// ([`evogs::config::RESUMABLE_KEYS`]) is applied with a note; any other is refused in one
+/// line that names each key, the checkpoint's value, the asked one and where it comes from.
+fn resume_config(
+    args: &TrainArgs,
+    run: &RunFolder,
+    ckpt: &TrainConfig,
+    rep: &mut dyn Reporter,
+) -> CommandResult<TrainConfig> {
+    let path = run.config();
+    let folder = TrainConfig::from_run_toml(&read_config_text(&path)?).at(&path)?;
+    let mut stages: Vec<(String, TrainConfig)> = vec![(path.display().to_string(), folder)];
+    if let Some(p) = args.preset {
+        stages.push((format!("--preset {p}"), TrainConfig::from_preset(p)));
+    }
+    if let Some(p) = &args.config {
+        let last = &stages[stages.len() - 1].1;
+        let cfg = merge_file(last, p)?;
+        cfg.validate().at(p)?;
+        stages.push((format!("--config {}", p.display()), cfg));
+    }
+    let mut asked = stages[stages.len() - 1].1.clone();
+    apply_flags(&mut asked, args, false);
+    stages.push((String::new(), asked.clone()));
+    // Each key is credited to the last stage that set it; the flags by name.
+    let source = |key: &str| {
+        let mut prev = ckpt;
+        let mut from = "";
+        for (name, cfg) in &stages {
+            if changes(prev, cfg).iter().any(|c| c.key == key) {
+                from = name;
+            }
+            prev = cfg;
+        }
+        if from.is_empty() {
+            flag_of(key).to_string()
+        } else {
+            from.to_string()
+        }
+    };
+    let all = changes(ckpt, &asked);
+    let refused: Vec<String> = all
+        .iter()
+        .filter(|c| !c.resumable())
+        .map(|c| {
+            format!(
+                "{} is {} in the checkpoint, {} from {}",
+                c.key,
+                c.from,
+                c.to,
+                source(&c.key)
+            )
+        })
+        .collect();
+    if !refused.is_empty() {
+        return Err(CommandError::at(
+            &run.checkpoint(),
+            format!(
+                "cannot resume: {}; a resume continues the checkpoint's model, data and \
+                 optimiser exactly, so undo the change, or train a new run (--force, or \
+                 another --out)",
+                refused.join("; ")
+            ),
+        ));
+    }
+    asked.validate()?;
+    for c in &all {
+        rep.info(&format!(
+            "note: resuming with {} = {} (the checkpoint has {}; from {})",
+            c.key,
+            c.to,
+            c.from,
+            source(&c.key)
+        ));
+    }
+    Ok(asked)
 }
 
 /// How the dataset's frames are held: decoded in memory, or read through the frame cache.
@@ -231,23 +347,23 @@ fn iters_notes(asked: &ScheduleConfig, got: &ScheduleConfig) -> Vec<String> {
     out
 }
 
-/// The run to train: its folder, whether it continues the folder's checkpoint, its
+/// The run to train: its folder, the checkpoint it continues (read once), its
 /// configuration and its dataset folder.
 struct Plan {
     run: RunFolder,
-    resuming: bool,
+    checkpoint: Option<checkpoint::Loaded>,
     cfg: TrainConfig,
     data_dir: PathBuf,
 }
 
 /// Checks the flags against the run folder (`--resume`, `--force`, a trained run already
-/// there) and resolves the configuration: the folder's own when resuming (with `--iters`
-/// and `--format` applied), else the preset, file and flags (with a note for each part of
-/// the schedule `--iters` shortened).
+/// there) and resolves the configuration: when resuming, the checkpoint's, with the changes
+/// a resume may take ([`resume_config`]); else the preset, file and flags (with a note for
+/// each part of the schedule `--iters` shortened).
 fn plan_run(args: &TrainArgs, rep: &mut dyn Reporter) -> CommandResult<Plan> {
     let run = RunFolder::new(&args.out);
-    let resuming = args.resume && run.checkpoint().is_file();
-    if args.resume && !resuming {
+    let has_checkpoint = run.checkpoint().is_file();
+    if args.resume && !has_checkpoint {
         return Err(CommandError::at(
             &run.checkpoint(),
             "no checkpoint to resume from",
@@ -258,16 +374,16 @@ fn plan_run(args: &TrainArgs, rep: &mut dyn Reporter) -> CommandResult<Plan> {
             "--resume continues the run in the folder and --force replaces it: pass one",
         ));
     }
-    if !args.resume && run.checkpoint().is_file() && !args.force {
+    if !args.resume && has_checkpoint && !args.force {
         return Err(CommandError::at(
             &run.dir,
             "the folder holds a trained run (a checkpoint); pass --resume to continue it or \
              --force to replace it",
         ));
     }
-    let mut cfg = if resuming {
-        let text = std::fs::read_to_string(run.config()).at(&run.config())?;
-        TrainConfig::from_run_toml(&text).at(&run.config())?
+    let (cfg, checkpoint) = if args.resume {
+        let loaded = checkpoint::load_model(&run.checkpoint()).map_err(CommandError::new)?;
+        (resume_config(args, &run, &loaded.cfg, rep)?, Some(loaded))
     } else {
         let cfg = resolve_config(args)?;
         if args.iters.is_some() {
@@ -279,27 +395,63 @@ fn plan_run(args: &TrainArgs, rep: &mut dyn Reporter) -> CommandResult<Plan> {
                 rep.info(&note);
             }
         }
-        cfg
+        (cfg, None)
     };
-    if resuming {
-        if let Some(n) = args.iters {
-            cfg.schedule.iterations = n;
-        }
-        if let Some(f) = args.format {
-            cfg.data.format = f;
-        }
-    }
-    let data_dir = match (&args.data, resuming) {
+    let data_dir = match (&args.data, args.resume) {
         (Some(d), _) => d.clone(),
         (None, true) => run.data_dir()?,
         (None, false) => shipped_scene(),
     };
     Ok(Plan {
         run,
-        resuming,
+        checkpoint,
         cfg,
         data_dir,
     })
+}
+
+/// Checks that the data a resumed run is given is the data its checkpoint was trained on
+/// (the fingerprint of the training split, wherever it lies now; a note when it moved, or
+/// when the checkpoint predates the record).
+fn check_resumed_data(
+    recorded: Option<&DataIdentity>,
+    now: &DataIdentity,
+    args: &TrainArgs,
+    run: &RunFolder,
+    rep: &mut dyn Reporter,
+) -> CommandResult<()> {
+    let Some(old) = recorded else {
+        rep.info(&format!(
+            "note: the checkpoint does not record its training data (written by an earlier \
+             evogs), so {} cannot be compared with it",
+            now.folder
+        ));
+        return Ok(());
+    };
+    if !old.same_data(now) {
+        let given = if args.data.is_some() {
+            "--data gives"
+        } else {
+            "the run's dataset folder now holds"
+        };
+        return Err(CommandError::at(
+            &run.checkpoint(),
+            format!(
+                "cannot resume: the checkpoint was trained on {}, and {given} {}, other \
+                 training views; resume with the checkpoint's data, or train a new run \
+                 (--force, or another --out)",
+                old.describe(),
+                now.describe()
+            ),
+        ));
+    }
+    if old.folder != now.folder {
+        rep.info(&format!(
+            "note: the training data moved from {} to {} (the same views); resuming with it",
+            old.folder, now.folder
+        ));
+    }
+    Ok(())
 }
 
 /// Prepares the run folder: with `--force` (not resuming) removes the old run's files, then
@@ -322,7 +474,7 @@ fn prepare_folder(args: &TrainArgs, plan: &Plan) -> CommandResult<()> {
 /// from).
 fn start(
     args: &TrainArgs,
-    plan: &Plan,
+    plan: &mut Plan,
     rep: &mut dyn Reporter,
     c: &dyn Collective,
 ) -> CommandResult<(Trainer, Dataset, Option<FolderLock>)> {
@@ -330,6 +482,10 @@ fn start(
     // Over several processes each rank decodes only the frames of its views, when it uses
     // them (through the frame cache).
     let mut ds = load_dataset(&plan.data_dir, &plan.cfg, c.size() == 1)?;
+    let identity = DataIdentity::of(&ds);
+    if let Some(l) = &plan.checkpoint {
+        check_resumed_data(l.meta.data.as_ref(), &identity, args, &plan.run, rep)?;
+    }
     let idx = supervised_indices(&ds.train, &plan.cfg.data);
     // The loaded training images move into the training views.
     let views = training_frames(&mut ds.train, &idx, plan.cfg.data.cache_bytes())?;
@@ -357,8 +513,10 @@ fn start(
     } else {
         None
     };
-    let mut t = if plan.resuming {
-        let t = checkpoint::resume(&plan.run.checkpoint(), views).map_err(CommandError::new)?;
+    let mut t = if let Some(loaded) = plan.checkpoint.take() {
+        let mut t = checkpoint::resume_from(loaded, &plan.run.checkpoint(), views)
+            .map_err(CommandError::new)?;
+        t.continue_with(&plan.cfg).map_err(CommandError::new)?;
         rep.info(&format!("resuming at iteration {}", t.iteration()));
         t
     } else {
@@ -369,7 +527,7 @@ fn start(
             .map(|p| (p.positions.as_slice(), p.colors.as_deref()));
         Trainer::new(plan.cfg.clone(), views, pts).map_err(CommandError::new)?
     };
-    t.set_total_iterations(plan.cfg.schedule.iterations);
+    t.set_data(identity);
     Ok((t, ds, lock))
 }
 
@@ -536,10 +694,10 @@ pub fn train_with(
     rep: &mut dyn Reporter,
     c: &dyn Collective,
 ) -> CommandResult<TrainOutcome> {
-    let plan = plan_run(args, rep)?;
+    let mut plan = plan_run(args, rep)?;
     let writer = c.rank() == 0;
     // Held to the end: rank 0 is the folder's one writer.
-    let (mut t, ds, _lock) = start(args, &plan, rep, c)?;
+    let (mut t, ds, _lock) = start(args, &mut plan, rep, c)?;
     t.check_collective(c).map_err(CommandError::new)?;
     if c.size() > 1 {
         // Every rank has its data and model (and rank 0 its folder) before the first step.

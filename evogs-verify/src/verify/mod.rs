@@ -56,6 +56,9 @@ pub enum VerifyError {
         /// The cause.
         source: std::io::Error,
     },
+    /// The path is not a regular file, too large for a reference-vector file, or not text.
+    #[error(transparent)]
+    Read(#[from] evogs::bounded::ReadError),
     /// The file is not JSON.
     #[error("{}: not valid JSON: {message}", path.display())]
     Json {
@@ -183,10 +186,11 @@ pub fn verify_value(path: &Path, v: &Value) -> Result<FileReport, VerifyError> {
 /// # Errors
 /// See [`VerifyError`]: every error names the file.
 pub fn verify_file(path: &Path) -> Result<FileReport, VerifyError> {
-    let text = std::fs::read_to_string(path).map_err(|source| VerifyError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = evogs::bounded::read_text(
+        path,
+        evogs::bounded::METADATA_BYTES,
+        "a reference-vector file",
+    )?;
     let v: Value = serde_json::from_str(&text).map_err(|e| VerifyError::Json {
         path: path.to_path_buf(),
         message: e.to_string(),

@@ -10,8 +10,10 @@ use crate::field::{HexPlaneConfig, NeuralFieldConfig};
 use crate::model::{HopLaw, HopRender, Motion, Waypoints};
 use serde::{Deserialize, Serialize};
 
+pub mod changes;
 mod removed;
 mod sections;
+pub use changes::{ConfigChange, RESUMABLE_KEYS, changes};
 pub use sections::{
     DataConfig, DensifyConfig, DynamicsConfig, HopConfig, InitConfig, LossConfig, OptimConfig,
     Preset, Protocol, ScheduleConfig, TimeCoordinate,

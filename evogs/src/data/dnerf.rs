@@ -10,6 +10,7 @@
 use super::dataset::{Dataset, LoadOptions, SplitName, View, optional_point_cloud};
 use super::error::DataError;
 use super::format::DataFormat;
+use crate::bounded;
 use evogs_splat::{Image, PinholeCamera};
 use serde::Deserialize;
 use std::path::Path;
@@ -137,14 +138,12 @@ fn load_split(
     opts: &LoadOptions,
 ) -> Result<Option<Vec<View>>, DataError> {
     let path = root.join(format!("transforms_{}.json", split.as_str()));
-    if !path.is_file() {
+    // Absent: no such split. Present as anything but a regular file: an error that says so.
+    if std::fs::symlink_metadata(&path).is_err() {
         return Ok(None);
     }
     let p = path.display().to_string();
-    let text = std::fs::read_to_string(&path).map_err(|e| DataError::Invalid {
-        path: p.clone(),
-        msg: e.to_string(),
-    })?;
+    let text = bounded::read_text(&path, bounded::METADATA_BYTES, "a transforms file")?;
     let file = parse_transforms(&text, split).map_err(|msg| DataError::Invalid {
         path: p.clone(),
         msg,

@@ -3,6 +3,7 @@
 use super::image_io::ImageIoError;
 use super::npy::NpyError;
 use super::ply::PlyError;
+use crate::bounded::ReadError;
 
 /// Why a dataset could not be loaded: always names the file.
 #[derive(Debug, thiserror::Error)]
@@ -32,4 +33,7 @@ pub enum DataError {
     /// A `.npy` file could not be read.
     #[error(transparent)]
     Npy(#[from] NpyError),
+    /// A file is not a regular file, too large for its format, or not text.
+    #[error(transparent)]
+    Read(#[from] ReadError),
 }

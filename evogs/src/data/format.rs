@@ -37,6 +37,14 @@ impl DataFormat {
     /// A missing folder, a folder with neither marker file, or one with both (then the
     /// format must be named).
     pub fn resolve(self, root: &Path) -> Result<Self, DataError> {
+        if std::fs::metadata(root).is_ok_and(|m| !m.is_dir()) {
+            return Err(DataError::Invalid {
+                path: root.display().to_string(),
+                msg: "this is a file; a dataset is a folder (with transforms_train.json, or \
+                      poses_bounds.npy and camXX/ folders)"
+                    .into(),
+            });
+        }
         if !root.is_dir() {
             return Err(DataError::Missing {
                 path: root.display().to_string(),
@@ -46,8 +54,12 @@ impl DataFormat {
         if self != Self::Auto {
             return Ok(self);
         }
-        let dnerf = root.join("transforms_train.json").is_file();
-        let n3dv = root.join("poses_bounds.npy").is_file();
+        // Present as any node: one that is not a regular file is named by its reader.
+        let present = |name: &str| std::fs::symlink_metadata(root.join(name)).is_ok();
+        let (dnerf, n3dv) = (
+            present("transforms_train.json"),
+            present("poses_bounds.npy"),
+        );
         match (dnerf, n3dv) {
             (true, false) => Ok(Self::Dnerf),
             (false, true) => Ok(Self::N3dv),

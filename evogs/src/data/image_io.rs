@@ -42,6 +42,15 @@ pub enum ImageIoError {
 /// A missing, corrupt or non-PNG file, or an unsupported colour type.
 pub fn load_png_rgb(path: &Path, background: [f32; 3]) -> Result<Image<f32>, ImageIoError> {
     let p = path.display().to_string();
+    // A FIFO would block the decoder, a device never end: only regular files are opened.
+    crate::bounded::regular_file_size(path, "an image").map_err(|e| ImageIoError::Read {
+        path: p.clone(),
+        msg: match e {
+            crate::bounded::ReadError::NotAFile { kind, .. } => format!("it is {kind}, not a file"),
+            crate::bounded::ReadError::Io { source, .. } => source.to_string(),
+            other => other.to_string(),
+        },
+    })?;
     let reader = ImageReader::open(path)
         .map_err(|e| ImageIoError::Read {
             path: p.clone(),

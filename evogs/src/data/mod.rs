@@ -7,6 +7,7 @@ pub mod error;
 pub mod format;
 pub mod frame_cache;
 pub mod gif_writer;
+pub mod identity;
 pub mod image_io;
 mod load;
 pub mod n3dv;
@@ -17,3 +18,4 @@ pub use dataset::{Dataset, LoadOptions, PointCloud, RigCamera, SplitName, View, 
 pub use error::DataError;
 pub use format::DataFormat;
 pub use frame_cache::{CacheStats, FrameCache};
+pub use identity::DataIdentity;

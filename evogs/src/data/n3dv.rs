@@ -306,10 +306,8 @@ fn frame_times(root: &Path, opts: &LoadOptions, count: usize) -> Result<Vec<f64>
         return Ok((0..count).map(|k| k as f64 / denom).collect());
     };
     let p = file.display().to_string();
-    let text = std::fs::read_to_string(&file).map_err(|e| DataError::Invalid {
-        path: p.clone(),
-        msg: format!("cannot read the frame times: {e}"),
-    })?;
+    let text =
+        crate::bounded::read_text(&file, crate::bounded::METADATA_BYTES, "a frame-times file")?;
     parse_frame_times(&text, count).map_err(|msg| DataError::Invalid { path: p, msg })
 }
 

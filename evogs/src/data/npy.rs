@@ -55,10 +55,19 @@ impl NpyMatrix {
     /// An unreadable file, a bad magic string or version, a malformed header, a dtype other
     /// than `<f8`, a shape that is not 2-D, or data shorter or longer than the shape says.
     pub fn read(path: &Path) -> Result<Self, NpyError> {
-        let bytes = std::fs::read(path).map_err(|e| NpyError {
-            path: path.display().to_string(),
-            msg: format!("cannot read: {e}"),
-        })?;
+        // A pose file holds a few hundred numbers: 256 MiB is far beyond any.
+        let bytes = crate::bounded::read_bytes(path, crate::bounded::METADATA_BYTES, "a .npy file")
+            .map_err(|e| NpyError {
+                path: path.display().to_string(),
+                msg: match e {
+                    crate::bounded::ReadError::Io { source, .. } => {
+                        format!("cannot read: {source}")
+                    }
+                    other => other
+                        .to_string()
+                        .replacen(&format!("{}: ", path.display()), "", 1),
+                },
+            })?;
         Self::parse(&bytes).map_err(|msg| NpyError {
             path: path.display().to_string(),
             msg,

@@ -80,6 +80,9 @@ pub enum PlyError {
         /// Cause.
         source: std::io::Error,
     },
+    /// The path is not a regular file, or is larger than a point cloud can be.
+    #[error(transparent)]
+    Read(#[from] crate::bounded::ReadError),
     /// The file is not a PLY file the reader supports, or holds values it rejects.
     #[error("{path}: malformed PLY: {msg}")]
     Malformed {
@@ -274,10 +277,7 @@ impl PlyTable {
     /// [`PlyError`], one line naming the file and the problem.
     pub fn read(path: &Path) -> Result<Self, PlyError> {
         let p = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| PlyError::Io {
-            path: p.clone(),
-            source,
-        })?;
+        let bytes = crate::bounded::read_bytes(path, crate::bounded::ARRAY_BYTES, "a PLY file")?;
         Self::parse(&bytes).map_err(|msg| PlyError::Malformed { path: p, msg })
     }
 

@@ -166,6 +166,7 @@ pub fn read_motion_mask(view: &View) -> Result<Option<MotionMask>, String> {
     if !path.is_file() {
         return Ok(None);
     }
+    crate::bounded::regular_file_size(&path, "a motion mask").map_err(|e| e.to_string())?;
     let img = image::open(&path)
         .map_err(|e| format!("{}: cannot read the motion mask: {e}", path.display()))?
         .to_rgba8();

@@ -36,6 +36,9 @@ const FORMAT: &str = "evogs archive";
 /// Why an archive could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum ArchiveError {
+    /// The path is not a regular file, or is larger than a checkpoint can be.
+    #[error(transparent)]
+    Read(#[from] crate::bounded::ReadError),
     /// I/O failure.
     #[error("{path}: {source}")]
     Io {
@@ -212,10 +215,7 @@ impl Archive {
     /// I/O failures or a corrupt file.
     pub fn read(path: &Path) -> Result<Self, ArchiveError> {
         let p = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| ArchiveError::Io {
-            path: p.clone(),
-            source,
-        })?;
+        let bytes = crate::bounded::read_bytes(path, crate::bounded::ARRAY_BYTES, "a checkpoint")?;
         Self::from_bytes(&bytes).map_err(|msg| ArchiveError::Corrupt { path: p, msg })
     }
 

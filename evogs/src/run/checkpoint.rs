@@ -6,6 +6,7 @@
 
 use super::archive::{Archive, ArchiveError};
 use crate::config::TrainConfig;
+use crate::data::DataIdentity;
 use crate::field::TimeMapping;
 use crate::model::{AnchorState, Model, ModelFrame, build_model};
 use crate::train::adam::AdamState;
@@ -83,6 +84,9 @@ pub struct CheckpointMeta {
     pub config: String,
     /// The log rows so far.
     pub log: Vec<LogRow>,
+    /// The training data (absent in checkpoints written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data: Option<DataIdentity>,
 }
 
 /// A `u64` as decimal text.
@@ -135,6 +139,7 @@ pub fn save(t: &Trainer, path: &Path) -> Result<(), CheckpointError> {
         rng_state: st.rng.state(),
         config: t.cfg().to_toml(),
         log: st.log.clone(),
+        data: st.data.clone(),
     };
     let invalid = |msg: String| CheckpointError::Invalid {
         path: path.display().to_string(),
@@ -387,6 +392,7 @@ fn read_state(
             max_radius: narrow(u("stats.max_radius")?),
         },
         optim,
+        data: meta.data.clone(),
     };
     state.check(model)?;
     Ok(state)
@@ -398,12 +404,25 @@ fn read_state(
 /// # Errors
 /// Unreadable or inconsistent checkpoints.
 pub fn resume(path: &Path, views: impl Into<TrainViews>) -> Result<Trainer, CheckpointError> {
+    resume_from(load_model(path)?, path, views)
+}
+
+/// [`resume`] from a checkpoint already read (from `path`, which errors name): a caller
+/// that compared its configuration and data with what it was asked for first reads it once.
+///
+/// # Errors
+/// An inconsistent checkpoint.
+pub fn resume_from(
+    loaded: Loaded,
+    path: &Path,
+    views: impl Into<TrainViews>,
+) -> Result<Trainer, CheckpointError> {
     let Loaded {
         cfg,
         model,
         meta,
         archive,
-    } = load_model(path)?;
+    } = loaded;
     let bad = |msg: String| CheckpointError::Invalid {
         path: path.display().to_string(),
         msg,

@@ -70,8 +70,9 @@ impl GroundTruth {
     /// # Errors
     /// An unreadable or malformed file, or another format (named).
     pub fn read(path: &Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        let text =
+            crate::bounded::read_text(path, crate::bounded::METADATA_BYTES, "a scene motion file")
+                .map_err(|e| e.to_string())?;
         let gt: Self = serde_json::from_str(&text)
             .map_err(|e| format!("{}: not a scene motion file: {e}", path.display()))?;
         if gt.format != FORMAT {

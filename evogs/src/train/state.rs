@@ -4,6 +4,7 @@
 use super::densify::DensifyStats;
 use super::optim::Optimizer;
 use super::sampler::ViewSampler;
+use crate::data::DataIdentity;
 use crate::model::Model;
 use evogs_math::rng::SplitMix64;
 
@@ -51,6 +52,9 @@ pub struct TrainerState {
     pub stats: DensifyStats,
     /// Adam states.
     pub optim: Optimizer,
+    /// The training data this run has seen (`None` until a caller records it, and in
+    /// checkpoints written before it was recorded).
+    pub data: Option<DataIdentity>,
 }
 
 impl TrainerState {
@@ -68,6 +72,7 @@ impl TrainerState {
             log: Vec::new(),
             stats: DensifyStats::new(model.len()),
             optim: Optimizer::new(model),
+            data: None,
         }
     }
 

@@ -20,7 +20,8 @@ use super::step::{
     StepLosses, StepSettings, StepWorkspace, TeacherSample, ViewData, accumulate_screen_stats,
     loss_and_grad,
 };
-use crate::config::TrainConfig;
+use crate::config::{ConfigChange, TrainConfig, changes};
+use crate::data::DataIdentity;
 use crate::field::regularize::PlaneRegWeights;
 use crate::model::init::{gaussians_from_points, random_points};
 use crate::model::{HopStart, Model, ModelFrame, ModelGrad, Motion, build_model, render_options};
@@ -252,6 +253,45 @@ impl Trainer {
     pub const fn set_total_iterations(&mut self, iterations: u64) {
         self.cfg.schedule.iterations = iterations;
         self.schedule.set_iterations(iterations);
+    }
+
+    /// Records the training data the run sees (checkpoints keep it, so that a resume or an
+    /// evaluation can tell the same scene from another).
+    pub fn set_data(&mut self, data: DataIdentity) {
+        self.state.data = Some(data);
+    }
+
+    /// Takes `asked` as the configuration for the rest of a resumed run. The changes a
+    /// resume may make ([`ConfigChange::resumable`]: the iteration count, the checkpoint and
+    /// log cadence, the frame cache, the layout's name) are applied and returned; any other
+    /// difference is refused, each key named with the checkpoint's value and the asked one,
+    /// and nothing changes.
+    ///
+    /// # Errors
+    /// [`TrainError::Setup`] naming the refused keys, or an invalid `asked`.
+    pub fn continue_with(&mut self, asked: &TrainConfig) -> Result<Vec<ConfigChange>, TrainError> {
+        let all = changes(&self.cfg, asked);
+        let refused: Vec<String> = all
+            .iter()
+            .filter(|c| !c.resumable())
+            .map(ToString::to_string)
+            .collect();
+        if !refused.is_empty() {
+            return Err(TrainError::Setup(format!(
+                "a resumed run keeps its checkpoint's model, data and optimiser; these differ \
+                 from the checkpoint: {}",
+                refused.join(", ")
+            )));
+        }
+        asked.validate().map_err(TrainError::Setup)?;
+        self.cfg = asked.clone();
+        self.schedule = Schedule::new(
+            &self.cfg,
+            self.state.time_range,
+            &self.model.anchor_times,
+            self.state.extent,
+        );
+        Ok(all)
     }
 
     /// Whether all iterations are done.

@@ -63,7 +63,7 @@ pub(super) fn baselines(
             continue;
         }
         let path = run.args.out.join(FILE);
-        if let Ok(text) = std::fs::read_to_string(&path)
+        if let Ok(text) = evogs::bounded::read_text(&path, evogs::bounded::METADATA_BYTES, FILE)
             && let Ok(r) = serde_json::from_str::<BaselineRecord>(&text)
             && r.config_hash == run.config_hash
         {

@@ -46,6 +46,7 @@ use super::paths::{RunFolder, shipped_scene};
 use super::plot::{BarGroup, save_bars};
 use super::train::{TrainArgs, resolve_config};
 use evogs::config::{Preset, TrainConfig};
+use evogs::data::DataIdentity;
 use evogs::model::Motion;
 use evogs::train::collective::{Collective, Solo, barrier};
 use progress::{ChannelReporter, Message, StudyProgress};
@@ -200,7 +201,12 @@ fn check_writable(dir: &Path) -> Result<(), CommandError> {
 
 /// The hash of the configuration stored in a run folder, if it has one.
 fn stored_config_hash(run_dir: &Path) -> Option<String> {
-    let text = std::fs::read_to_string(run_dir.join("config.toml")).ok()?;
+    let text = evogs::bounded::read_text(
+        &run_dir.join("config.toml"),
+        evogs::bounded::CONFIG_BYTES,
+        "a configuration file",
+    )
+    .ok()?;
     let cfg = TrainConfig::from_run_toml(&text).ok()?;
     Some(config_hash(&cfg.to_toml()))
 }
@@ -209,6 +215,7 @@ fn stored_config_hash(run_dir: &Path) -> Option<String> {
 fn plan(
     args: &StudyArgs,
     data: &Path,
+    identity: &DataIdentity,
     base: &TrainConfig,
 ) -> Result<Vec<PlannedRun>, CommandError> {
     let mut runs = Vec::new();
@@ -244,6 +251,7 @@ fn plan(
                     folder,
                     args: targs,
                     config_hash: hash,
+                    data: identity.clone(),
                     iterations: cfg.schedule.iterations,
                     state: RunState::Fresh,
                 };
@@ -272,10 +280,38 @@ fn state_of(run: &PlannedRun, force: bool) -> Result<RunState, CommandError> {
     let record = run.record_path();
     if record.is_file() {
         let r = read_record(&record)?;
-        return if r.config_hash == run.config_hash {
-            Ok(RunState::Done)
-        } else {
-            Err(other("a finished run"))
+        if r.config_hash != run.config_hash {
+            return Err(other("a finished run"));
+        }
+        return match &r.data {
+            Some(d) if !d.same_data(&run.data) => Err(CommandError::at(
+                &run.args.out,
+                format!(
+                    "holds a finished run trained on {}, and --data is {}, other training \
+                     views; pass --force to retrain it, or choose another --out",
+                    d.describe(),
+                    run.data.describe()
+                ),
+            )),
+            Some(_) => Ok(RunState::Done),
+            // A record written before the data was recorded: the run folder's dataset path.
+            None => match RunFolder::new(&run.args.out).data_dir() {
+                Ok(dir)
+                    if std::fs::canonicalize(&dir)
+                        .is_ok_and(|d| d.display().to_string() == run.data.folder) =>
+                {
+                    Ok(RunState::Done)
+                }
+                _ => Err(CommandError::at(
+                    &run.args.out,
+                    format!(
+                        "holds a finished run whose record does not name its training data \
+                         and whose dataset record is not {}; pass --force to retrain it, or \
+                         choose another --out",
+                        run.data.folder
+                    ),
+                )),
+            },
         };
     }
     if RunFolder::new(&run.args.out).checkpoint().is_file() {
@@ -330,6 +366,7 @@ pub fn run_study_with(
     let data = args.data.clone().unwrap_or_else(shipped_scene);
     rep.info(&format!("data: {}", data.display()));
     let ds = load_dataset(&data, &base, true)?;
+    let identity = DataIdentity::of(&ds);
     let sets: Vec<Vec<HeldOutSet>> = args
         .protocols
         .iter()
@@ -342,7 +379,7 @@ pub fn run_study_with(
     } else {
         None
     };
-    let runs = plan(args, &data, &base)?;
+    let runs = plan(args, &data, &identity, &base)?;
     // Every rank has planned from the folders as they were before rank 0 clears any.
     barrier(c).map_err(CommandError::new)?;
     if args.force && writer {
@@ -525,7 +562,7 @@ fn train_pending(
                     if res.is_err() {
                         stop.store(true, Ordering::SeqCst);
                     }
-                    let _ = tx.send(Message::End(k, res));
+                    let _ = tx.send(Message::End(k, res.map(|_| ())));
                 }
             });
         }

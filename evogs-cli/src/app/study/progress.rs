@@ -5,7 +5,6 @@
 //! several, one `study` bar counts the training iterations of all runs and its message says
 //! where each running run is.
 
-use super::record::RunRecord;
 use crate::app::Reporter;
 use crate::app::error::CommandError;
 use std::sync::mpsc::Sender;
@@ -40,7 +39,7 @@ pub(super) enum Message {
     /// A report of a running run.
     Report(Event),
     /// Run `k` ended.
-    End(usize, Result<RunRecord, CommandError>),
+    End(usize, Result<(), CommandError>),
 }
 
 /// A [`Reporter`] that forwards a run's reports to the coordinating thread.

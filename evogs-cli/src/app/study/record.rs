@@ -37,6 +37,9 @@ pub struct RunRecord {
     pub folder: String,
     /// Hash of the run's resolved configuration.
     pub config_hash: String,
+    /// The training data (absent in records written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data: Option<evogs::data::DataIdentity>,
     /// Iterations trained.
     pub iterations: u64,
     /// Training seconds (resumed runs: the sum over their sessions).

@@ -668,6 +668,7 @@ mod tests {
             seed: repeat as u64,
             folder: String::new(),
             config_hash: String::new(),
+            data: None,
             iterations: 10,
             train_seconds: 1.0,
             gaussians: 100,

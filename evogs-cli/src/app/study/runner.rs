@@ -4,9 +4,10 @@
 use super::protocol::{HeldOutSet, StudyProtocol};
 use super::record::{RunRecord, SetMetrics};
 use crate::app::Reporter;
-use crate::app::error::{CommandError, Context as _};
+use crate::app::error::CommandError;
 use crate::app::paths::RunFolder;
 use crate::app::train::{TrainArgs, train};
+use evogs::data::DataIdentity;
 use evogs::data::Dataset;
 use evogs::eval::evaluate_views;
 use evogs::model::Motion;
@@ -49,6 +50,8 @@ pub(super) struct PlannedRun {
     pub(super) args: TrainArgs,
     /// Hash of the resolved configuration.
     pub(super) config_hash: String,
+    /// The study's training data.
+    pub(super) data: DataIdentity,
     /// Planned iterations.
     pub(super) iterations: u64,
     /// What has to happen.
@@ -77,7 +80,9 @@ impl PlannedRun {
 /// # Errors
 /// An unreadable or malformed file (named).
 pub(super) fn read_record(path: &Path) -> Result<RunRecord, CommandError> {
-    let text = std::fs::read_to_string(path).doing(path, "cannot read")?;
+    let text =
+        evogs::bounded::read_text(path, evogs::bounded::METADATA_BYTES, "a study run record")
+            .map_err(CommandError::new)?;
     serde_json::from_str(&text).map_err(|e| {
         CommandError::at(
             path,
@@ -176,6 +181,7 @@ fn execute_here(
         seed: run.seed,
         folder: run.folder.clone(),
         config_hash: run.config_hash.clone(),
+        data: Some(run.data.clone()),
         iterations: outcome.iterations,
         train_seconds: outcome.seconds,
         gaussians: outcome.gaussians,
