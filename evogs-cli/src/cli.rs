@@ -108,6 +108,10 @@ pub(crate) struct FrameArgs {
     /// Dataset layout: auto, dnerf or n3dv (default: the run's, recognised from the folder).
     #[arg(long)]
     pub(crate) format: Option<DataFormat>,
+    /// Replace the frames of an earlier sequence in the output folder (without it, a folder
+    /// holding `frame_NNNN.png`, `frames.json` or a GIF is refused).
+    #[arg(long)]
+    pub(crate) force: bool,
 }
 
 /// `evogs render`.
@@ -134,6 +138,7 @@ impl From<RenderCmd> for RenderArgs {
             gif: c.frames.gif,
             data: c.frames.data,
             format: c.frames.format,
+            force: c.frames.force,
         }
     }
 }
@@ -170,6 +175,7 @@ impl From<InjectCmd> for InjectArgs {
             gif: c.frames.gif,
             data: c.frames.data,
             format: c.frames.format,
+            force: c.frames.force,
         }
     }
 }
@@ -215,6 +221,10 @@ pub(crate) struct ExportCmd {
     /// Output `.ply` file (--time) or folder (--times).
     #[arg(long)]
     pub(crate) out: PathBuf,
+    /// With --times: replace the files of an earlier sequence in the folder (without it, a
+    /// folder holding `frame_NNNN.ply` or `sequence.json` is refused).
+    #[arg(long)]
+    pub(crate) force: bool,
 }
 
 /// Parses the command line; a usage error is one line (clap's first paragraph, which names

@@ -142,9 +142,17 @@ fn run(cli: Cli) -> CommandResult<Verdict> {
         Cmd::Inject(c) => output::frames(&inject(&c.into(), &mut term)?),
         Cmd::Bench(args) => output::bench(&run_bench(&args, &mut term)?, args.json.as_deref()),
         Cmd::Export(c) => match (c.time, c.times) {
+            (Some(_), _) if c.force => {
+                // clap does not enforce `requires` on a flag whose partner conflicts with a
+                // given one, so the rule is checked here.
+                return Err(CommandError::new(
+                    "--force replaces an earlier sequence and goes with --times; --time \
+                     writes one file (a file already there is replaced)",
+                ));
+            }
             (Some(t), _) => output::export_one(export(&c.run, t, &c.out)?, t, &c.out),
             (None, Some(times)) => {
-                let seq = export_sequence(&c.run, times, &c.out, &mut term)?;
+                let seq = export_sequence(&c.run, times, &c.out, c.force, &mut term)?;
                 output::export_sequence(seq.files.len(), seq.gaussians, &c.out);
             }
             (None, None) => {

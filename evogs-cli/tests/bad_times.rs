@@ -45,6 +45,7 @@ fn export_and_render_refuse_times_out_of_reach() {
                 gif: false,
                 data: Some(shipped_scene()),
                 format: None,
+                force: false,
             },
             None,
             &mut Silent,

@@ -1364,6 +1364,105 @@ fn build(c: &mut Cases) {
                 &[],
             );
         }
+        c.add(
+            "export onto a folder",
+            &[
+                &"export", &"--run", &run, &"--time", &"0.5", &"--out", &folder,
+            ],
+            &["a-folder.toml", "it is a folder"],
+            &[],
+        );
+        c.add(
+            "export onto a device",
+            &[
+                &"export",
+                &"--run",
+                &run,
+                &"--time",
+                &"0.5",
+                &"--out",
+                &"/dev/null",
+            ],
+            &["/dev/null", "a device"],
+            &[],
+        );
+        if fifo.exists() {
+            c.add(
+                "export onto a FIFO",
+                &[
+                    &"export", &"--run", &run, &"--time", &"0.5", &"--out", &fifo,
+                ],
+                &["pipe.toml", "FIFO"],
+                &[],
+            );
+        }
+        let to_folder = x.join("to-folder.ply");
+        std::os::unix::fs::symlink(&folder, &to_folder).expect("link");
+        c.add(
+            "export onto a link to a folder",
+            &[
+                &"export", &"--run", &run, &"--time", &"0.5", &"--out", &to_folder,
+            ],
+            &["to-folder.ply", "which is a folder"],
+            &[],
+        );
+        let stale = c.dir("stale-frames");
+        std::fs::write(stale.join("frame_0000.png"), b"old").expect("frame");
+        std::fs::write(stale.join("frame_0001.png"), b"old").expect("frame");
+        c.add(
+            "render over an earlier render",
+            &[
+                &"render", &"--run", &run, &"--out", &stale, &"--times", &"0:1:1",
+            ],
+            &["earlier sequence", "--force"],
+            &[&stale.join("frames.json")],
+        );
+        c.add(
+            "inject over an earlier render",
+            &[
+                &"inject",
+                &"--run",
+                &run,
+                &"--out",
+                &stale,
+                &"--times",
+                &"0:1:1",
+                &"--mask",
+                &"sphere:0,0,0,1",
+                &"--field",
+                &"translate:0,0,1",
+            ],
+            &["earlier sequence", "--force"],
+            &[&stale.join("frames.json")],
+        );
+        let stale_ply = c.dir("stale-ply");
+        std::fs::write(stale_ply.join("frame_0007.ply"), b"old").expect("ply");
+        c.add(
+            "export a sequence over an earlier one",
+            &[
+                &"export", &"--run", &run, &"--times", &"0:1:2", &"--out", &stale_ply,
+            ],
+            &["earlier sequence", "--force"],
+            &[
+                &stale_ply.join("sequence.json"),
+                &stale_ply.join("frame_0000.ply"),
+            ],
+        );
+        c.add(
+            "export --force without --times",
+            &[
+                &"export",
+                &"--run",
+                &run,
+                &"--time",
+                &"0.5",
+                &"--out",
+                &x.join("one.ply"),
+                &"--force",
+            ],
+            &["--times"],
+            &[&x.join("one.ply")],
+        );
         let huge = x.join("huge.toml");
         std::fs::write(&huge, vec![b'#'; (1 << 20) + 1]).expect("huge");
         c.add(

@@ -8,6 +8,7 @@ mod common;
 use evogs::run::checkpoint;
 use evogs_cli::app::Reporter;
 use evogs_cli::app::export::{SEQUENCE_FILE, Sequence, export, export_sequence};
+use evogs_cli::app::frame_writer::{FrameIndex, INDEX_FILE};
 use evogs_cli::app::interrupt;
 use evogs_cli::app::paths::shipped_scene;
 use evogs_cli::app::render::{CameraPath, FrameCameras, RenderArgs, path_cameras, render_sequence};
@@ -51,6 +52,7 @@ fn frames_stream_to_disk_and_an_interrupt_keeps_what_is_finished() {
         gif: true,
         data: Some(shipped_scene()),
         format: None,
+        force: false,
     };
 
     let full = dir.join("full");
@@ -64,14 +66,44 @@ fn frames_stream_to_disk_and_an_interrupt_keeps_what_is_finished() {
             "frame_0001.png",
             "frame_0002.png",
             "frame_0003.png",
+            "frames.json",
             "render.gif"
         ],
-        "exactly the frames and the GIF, no temporary files"
+        "exactly the frames, the index and the GIF, no temporary files"
     );
+    let index: FrameIndex =
+        serde_json::from_str(&std::fs::read_to_string(full.join(INDEX_FILE)).expect("index"))
+            .expect("json");
+    assert_eq!(index.files.len(), 4);
+    assert_eq!(index.times, [0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0]);
+    assert_eq!(index.gif.as_deref(), Some("render.gif"));
+
     let gif = std::fs::read(full.join("render.gif")).expect("gif");
     assert!(
         gif.starts_with(b"GIF89a") && gif.ends_with(&[0x3b]),
         "a complete GIF"
+    );
+
+    // A second, shorter render into the same folder: refused, then with --force the folder
+    // holds its frames alone (no stale frame_0002/0003 of the first).
+    let e = render_sequence(&args(full.clone(), 2), None, &mut InterruptAt(0))
+        .expect_err("an earlier sequence")
+        .to_string();
+    assert!(
+        e.contains("earlier sequence") && e.contains("--force"),
+        "{e}"
+    );
+    assert_eq!(listing(&full).len(), 6, "nothing touched by the refusal");
+    let forced = RenderArgs {
+        force: true,
+        gif: false,
+        ..args(full.clone(), 2)
+    };
+    render_sequence(&forced, None, &mut InterruptAt(0)).expect("replaced");
+    assert_eq!(
+        listing(&full),
+        ["frame_0000.png", "frame_0001.png", "frames.json"],
+        "only the new sequence"
     );
 
     let cut = dir.join("cut");
@@ -89,7 +121,7 @@ fn frames_stream_to_disk_and_an_interrupt_keeps_what_is_finished() {
     assert_eq!(
         listing(&cut),
         ["frame_0000.png", "frame_0001.png"],
-        "the finished frames, no partial GIF or temporary file"
+        "the finished frames, no partial GIF, index or temporary file"
     );
 
     // An orbit for a hundred million frames is a formula, not a list.
@@ -110,7 +142,8 @@ fn an_exported_sequence_matches_single_exports_and_lists_its_files() {
     let dir = common::scratch("export-seq");
     let run = common::tiny_run(&dir);
     let out = dir.join("seq");
-    let seq = export_sequence(&run, (-0.25, 1.25, 3), &out, &mut InterruptAt(0)).expect("sequence");
+    let seq = export_sequence(&run, (-0.25, 1.25, 3), &out, false, &mut InterruptAt(0))
+        .expect("sequence");
     assert_eq!(
         seq.files,
         ["frame_0000.ply", "frame_0001.ply", "frame_0002.ply"]
@@ -131,7 +164,16 @@ fn an_exported_sequence_matches_single_exports_and_lists_its_files() {
         );
     }
     let cut = dir.join("cut");
-    let e = export_sequence(&run, (0.0, 1.0, 4), &cut, &mut InterruptAt(1))
+    let again = export_sequence(&run, (0.0, 1.0, 2), &out, false, &mut InterruptAt(0))
+        .expect_err("an earlier sequence")
+        .to_string();
+    assert!(again.contains("earlier sequence"), "{again}");
+    export_sequence(&run, (0.0, 1.0, 2), &out, true, &mut InterruptAt(0)).expect("replaced");
+    assert!(
+        !out.join("frame_0002.ply").exists(),
+        "no stale file of the longer sequence"
+    );
+    let e = export_sequence(&run, (0.0, 1.0, 4), &cut, false, &mut InterruptAt(1))
         .expect_err("interrupted")
         .to_string();
     assert!(

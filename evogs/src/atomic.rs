@@ -38,12 +38,16 @@ pub struct AtomicFile {
 }
 
 impl AtomicFile {
-    /// Opens the temporary file for `path` (whose folder must exist).
+    /// Opens the temporary file for `path` (whose folder must exist). A symbolic link is
+    /// written through: its target is replaced, and the link stays. A destination that exists
+    /// and is not a regular file (a folder, a FIFO, a device, a socket) is refused, never
+    /// replaced.
     ///
     /// # Errors
     /// The temporary file cannot be created (no folder, no permission, a path without a
-    /// file name).
+    /// file name), or the destination is not a regular file or a loop of links.
     pub fn create(path: &Path) -> io::Result<Self> {
+        let path = &destination(path)?;
         let name = path.file_name().ok_or_else(|| {
             io::Error::new(io::ErrorKind::InvalidInput, "the path has no file name")
         })?;
@@ -95,6 +99,67 @@ impl AtomicFile {
     }
 }
 
+/// The file `path` names: `path` itself, or the end of its chain of symbolic links (a link
+/// that points nowhere yet names the file to create). Refuses a destination that exists and
+/// is not a regular file, and a loop of links.
+fn destination(path: &Path) -> io::Result<PathBuf> {
+    let mut p = path.to_path_buf();
+    for _ in 0..40 {
+        let Ok(meta) = std::fs::symlink_metadata(&p) else {
+            return Ok(p);
+        };
+        let t = meta.file_type();
+        if t.is_symlink() {
+            let target = std::fs::read_link(&p)?;
+            p = match p.parent() {
+                Some(dir) if target.is_relative() => dir.join(target),
+                _ => target,
+            };
+            continue;
+        }
+        if t.is_file() {
+            return Ok(p);
+        }
+        let kind = if t.is_dir() {
+            "a folder"
+        } else {
+            kind_of_special(t)
+        };
+        let what = if p == path {
+            format!("it is {kind}")
+        } else {
+            format!("it links to {}, which is {kind}", p.display())
+        };
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("{what}; evogs writes regular files and does not replace it"),
+        ));
+    }
+    Err(io::Error::new(
+        io::ErrorKind::InvalidInput,
+        "it is a loop of symbolic links",
+    ))
+}
+
+/// What a node that is neither a file, a folder nor a link is, in words.
+fn kind_of_special(t: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt as _;
+        if t.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if t.is_char_device() || t.is_block_device() {
+            return "a device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    let _ = t;
+    "not a regular file"
+}
+
 impl Write for AtomicFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         self.writer()?.write(buf)
@@ -136,6 +201,59 @@ pub fn write_atomic_named(path: &Path, bytes: &[u8]) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[cfg(unix)]
+    #[test]
+    fn a_link_is_written_through_and_special_nodes_are_refused() {
+        use std::os::unix::fs::symlink;
+        let d = scratch("nodes");
+        let (target, link) = (d.join("target.ply"), d.join("link.ply"));
+        std::fs::write(&target, b"old").expect("write");
+        symlink("target.ply", &link).expect("link");
+        write_atomic(&link, b"new").expect("through the link");
+        assert_eq!(std::fs::read(&target).expect("read"), b"new");
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .expect("meta")
+                .file_type()
+                .is_symlink()
+        );
+        let dangling = d.join("dangling.ply");
+        symlink("created.ply", &dangling).expect("link");
+        write_atomic(&dangling, b"x").expect("creates the target");
+        assert_eq!(std::fs::read(d.join("created.ply")).expect("read"), b"x");
+        let folder = d.join("folder.ply");
+        std::fs::create_dir(&folder).expect("folder");
+        let e = write_atomic(&folder, b"x").expect_err("a folder");
+        assert!(e.to_string().contains("it is a folder"), "{e}");
+        let to_folder = d.join("to-folder.ply");
+        symlink(&folder, &to_folder).expect("link");
+        let e = write_atomic(&to_folder, b"x").expect_err("a link to a folder");
+        assert!(e.to_string().contains("which is a folder"), "{e}");
+        let e = write_atomic(Path::new("/dev/null"), b"x").expect_err("a device");
+        assert!(e.to_string().contains("a device"), "{e}");
+        let (a, b) = (d.join("a"), d.join("b"));
+        symlink(&b, &a).expect("link");
+        symlink(&a, &b).expect("link");
+        let e = write_atomic(&a, b"x").expect_err("a loop");
+        assert!(e.to_string().contains("loop"), "{e}");
+        let fifo = d.join("pipe.ply");
+        if std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .is_ok_and(|s| s.success())
+        {
+            let e = write_atomic(&fifo, b"x").expect_err("a FIFO");
+            assert!(e.to_string().contains("FIFO"), "{e}");
+            let t = std::fs::symlink_metadata(&fifo)
+                .expect("still there")
+                .file_type();
+            assert!(!t.is_file(), "the FIFO was not replaced");
+        }
+        let mut names = entries(&d);
+        names.retain(|n| n.contains(".tmp-"));
+        assert!(names.is_empty(), "{names:?}");
+    }
 
     fn scratch(tag: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("evogs-atomic-{tag}-{}", std::process::id()));

@@ -7,6 +7,7 @@
 use super::error::{CommandError, Context as _};
 use super::paths::RunFolder;
 use super::render::frame_time;
+use super::sequence_folder::SequenceFiles;
 use super::{Reporter, interrupt};
 use evogs::data::ply::PlyTable;
 use evogs::model::Model;
@@ -93,17 +94,27 @@ pub struct Sequence {
 /// The name of the index file `export_sequence` writes beside the frames.
 pub const SEQUENCE_FILE: &str = "sequence.json";
 
+/// The files of an exported sequence.
+const PLY_FILES: SequenceFiles = SequenceFiles {
+    prefix: "frame_",
+    ext: "ply",
+    others: &[SEQUENCE_FILE],
+};
+
 /// Runs `evogs export --times A:B:N --out DIR`: one 3DGS `.ply` per time (`frame_NNNN.ply`,
 /// the sequence viewers such as `SuperSplat` import) and `sequence.json` listing the files and
 /// their times, every file written atomically; the index comes last, so a folder with an
-/// index holds the whole sequence. An interrupt stops after the current file.
+/// index holds the whole sequence. The sequence owns the folder: an earlier one's files are
+/// refused, or removed with `force`. An interrupt stops after the current file.
 ///
 /// # Errors
-/// Unreadable run, times out of reach, an unwritable folder, or an interrupt.
+/// Unreadable run, times out of reach, an unwritable folder, an earlier sequence there
+/// without `force`, or an interrupt.
 pub fn export_sequence(
     run: &Path,
     times: (f64, f64, usize),
     out: &Path,
+    force: bool,
     rep: &mut dyn Reporter,
 ) -> Result<Sequence, CommandError> {
     let mut model = load(run)?;
@@ -113,6 +124,7 @@ pub fn export_sequence(
             .map_err(|e| CommandError::new(format!("--times: {e}")))?;
     }
     let _lock = super::lock::FolderLock::acquire(out, "export --times")?;
+    PLY_FILES.claim(out, force)?;
     let n = times.2;
     let mut seq = Sequence {
         files: Vec::with_capacity(n),

@@ -1,11 +1,14 @@
 //! Writing a rendered sequence: numbered PNG frames as they come and, optionally, a GIF
-//! streamed beside them, in constant memory whatever the length. Every file is written
-//! atomically; an interrupt (SIGINT/SIGTERM) stops after the current frame, keeping the
-//! finished frames and leaving no partial GIF.
+//! streamed beside them, in constant memory whatever the length, and `frames.json`, the
+//! index of the frames and their times, last. The sequence owns its folder
+//! ([`SequenceFiles::claim`]): an earlier render's frames are refused, or removed with
+//! `--force`. Every file is written atomically; an interrupt (SIGINT/SIGTERM) stops after
+//! the current frame, keeping the finished frames and leaving no partial GIF and no index.
 
 use super::error::CommandError;
 use super::interrupt;
 use super::lock::FolderLock;
+use super::sequence_folder::SequenceFiles;
 use evogs::data::gif_writer::GifWriter;
 use evogs::data::image_io;
 use evogs_splat::Image;
@@ -20,6 +23,7 @@ pub struct FrameWriter {
     dir: PathBuf,
     gif: Option<(GifWriter, PathBuf)>,
     written: usize,
+    times: Vec<f64>,
     // Held while writing: one writer per folder.
     _lock: FolderLock,
 }
@@ -43,19 +47,42 @@ impl FramesWritten {
     }
 }
 
+/// The files of a rendered sequence.
+pub const FRAME_FILES: SequenceFiles = SequenceFiles {
+    prefix: "frame_",
+    ext: "png",
+    others: &[INDEX_FILE, "render.gif", "inject.gif"],
+};
+
+/// The index of a rendered sequence, written last.
+pub const INDEX_FILE: &str = "frames.json";
+
+/// `frames.json`: the frames of a finished sequence and their times.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FrameIndex {
+    /// Frame files, in order, relative to the folder.
+    pub files: Vec<String>,
+    /// The time of each frame.
+    pub times: Vec<f64>,
+    /// The GIF, if one was written (relative to the folder).
+    pub gif: Option<String>,
+}
+
 fn frame_path(dir: &Path, i: usize) -> PathBuf {
     dir.join(format!("frame_{i:04}.png"))
 }
 
 impl FrameWriter {
-    /// Creates the folder (and its parents), locks it ([`FolderLock`]) and, with
+    /// Creates the folder (and its parents), locks it ([`FolderLock`]), claims it for this
+    /// sequence (an earlier one's files are refused, or removed with `force`) and, with
     /// `gif_name`, starts `dir/gif_name`.
     ///
     /// # Errors
-    /// The folder or the GIF's temporary file cannot be created, or another process is
-    /// writing to the folder.
-    pub fn create(dir: &Path, gif_name: Option<&str>) -> Result<Self, CommandError> {
+    /// The folder or the GIF's temporary file cannot be created, another process is
+    /// writing to the folder, or it holds an earlier sequence and `force` is off.
+    pub fn create(dir: &Path, gif_name: Option<&str>, force: bool) -> Result<Self, CommandError> {
         let lock = FolderLock::acquire(dir, "render")?;
+        FRAME_FILES.claim(dir, force)?;
         let gif = match gif_name {
             Some(name) => {
                 let p = dir.join(name);
@@ -68,6 +95,7 @@ impl FrameWriter {
             dir: dir.to_path_buf(),
             gif,
             written: 0,
+            times: Vec::new(),
             _lock: lock,
         })
     }
@@ -93,24 +121,26 @@ impl FrameWriter {
         )))
     }
 
-    /// Writes the next frame (`frame_NNNN.png`) and appends it to the GIF.
+    /// Writes the next frame (`frame_NNNN.png`, the scene at time `t`) and appends it to the
+    /// GIF.
     ///
     /// # Errors
     /// I/O or encoding failures, naming the file.
-    pub fn push(&mut self, img: &Image<f32>) -> Result<(), CommandError> {
+    pub fn push(&mut self, img: &Image<f32>, t: f64) -> Result<(), CommandError> {
         let p = frame_path(&self.dir, self.written);
         image_io::save_png(img, &p).map_err(CommandError::new)?;
         if let Some((g, _)) = &mut self.gif {
             g.push(img).map_err(CommandError::new)?;
         }
         self.written += 1;
+        self.times.push(t);
         Ok(())
     }
 
-    /// Completes the GIF and reports what was written.
+    /// Completes the GIF, writes the index and reports what was written.
     ///
     /// # Errors
-    /// The GIF cannot be completed.
+    /// The GIF or the index cannot be written.
     pub fn finish(self) -> Result<FramesWritten, CommandError> {
         let gif = match self.gif {
             Some((g, p)) => {
@@ -119,6 +149,17 @@ impl FrameWriter {
             }
             None => None,
         };
+        let name = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned());
+        let index = FrameIndex {
+            files: (0..self.written)
+                .filter_map(|i| name(&frame_path(&self.dir, i)))
+                .collect(),
+            times: self.times,
+            gif: gif.as_deref().and_then(name),
+        };
+        let json = serde_json::to_string_pretty(&index).unwrap_or_default();
+        evogs::atomic::write_atomic_named(&self.dir.join(INDEX_FILE), json.as_bytes())
+            .map_err(CommandError::new)?;
         Ok(FramesWritten {
             dir: self.dir,
             count: self.written,

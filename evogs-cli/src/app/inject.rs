@@ -165,6 +165,8 @@ pub struct InjectArgs {
     pub data: Option<PathBuf>,
     /// Dataset layout override (default: the run's `data.format`).
     pub format: Option<DataFormat>,
+    /// Replace the frames of an earlier sequence in `out` (without it, they are refused).
+    pub force: bool,
 }
 
 /// Renders the edited motion; returns the frames written.
@@ -213,7 +215,7 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
             .map_err(|e| CommandError::new(format!("--times: {e}")))?;
     }
     let cams = path_cameras(&args.camera, &ds, &model, count)?;
-    let mut out = FrameWriter::create(&args.out, args.gif.then_some("inject.gif"))?;
+    let mut out = FrameWriter::create(&args.out, args.gif.then_some("inject.gif"), args.force)?;
     model.field.set_count(n);
     model.set_par(Par::best());
     let mut stepper = Stepper::new(model.method, gaussian_layout(n));
@@ -244,7 +246,7 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
         for v in img.data_mut() {
             *v = v.clamp(0.0, 1.0);
         }
-        out.push(&img)?;
+        out.push(&img, t)?;
         rep.progress(i as u64 + 1, &format!("t = {t:.3}"));
     }
     rep.finish();

@@ -17,6 +17,7 @@ pub mod paths;
 pub mod plot;
 pub mod render;
 pub mod scenes;
+pub mod sequence_folder;
 pub mod study;
 pub mod train;
 pub mod view;

@@ -65,6 +65,8 @@ pub struct RenderArgs {
     pub data: Option<PathBuf>,
     /// Dataset layout override (default: the run's `data.format`).
     pub format: Option<DataFormat>,
+    /// Replace the frames of an earlier sequence in `out` (without it, they are refused).
+    pub force: bool,
 }
 
 /// Parses `A:B:N` (N ≥ 1).
@@ -362,7 +364,7 @@ pub fn render_sequence(
             .map_err(|e| CommandError::new(format!("--times: {e}")))?;
     }
     let cams = path_cameras(&args.camera, ds, model, n)?;
-    let mut out = FrameWriter::create(&args.out, args.gif.then_some("render.gif"))?;
+    let mut out = FrameWriter::create(&args.out, args.gif.then_some("render.gif"), args.force)?;
     rep.start("render", n as u64);
     let mut scratch = Splats::default();
     for i in 0..n {
@@ -376,7 +378,7 @@ pub fn render_sequence(
             Par::best(),
             &mut scratch,
         );
-        out.push(&img)?;
+        out.push(&img, t)?;
         rep.progress(i as u64 + 1, &format!("t = {t:.3}"));
     }
     rep.finish();

@@ -665,6 +665,8 @@ fn finish(
         gif: true,
         data: Some(plan.data_dir),
         format: Some(ds.format),
+        // The run's own render folder: a resumed run renders over its earlier frames.
+        force: true,
     };
     outcome.gif = render_sequence(&rargs, Some((t.model_mut(), ds)), rep)?.gif;
     Ok(())
