@@ -181,6 +181,9 @@ fn check(case: &Case) -> Result<(), String> {
         return Err(format!("not exactly one error line: {stderr}"));
     }
     let line = errors[0];
+    if line.contains("   ") {
+        return Err(format!("the error line holds a run of spaces: {line:?}"));
+    }
     for w in &case.expect {
         if !line.contains(w.as_str()) {
             return Err(format!("the error line lacks `{w}`: {line}"));
@@ -202,6 +205,18 @@ fn check(case: &Case) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Sets entry `k` (0..17) of the first camera's row of `DIR/poses_bounds.npy` (4: the image
+/// height, 9: the width, 14: the focal length).
+fn set_pose_entry(dir: &Path, k: usize, value: f64) {
+    let path = dir.join("poses_bounds.npy");
+    let mut b = std::fs::read(&path).expect("poses");
+    let rows = b.len() - 128;
+    let at = b.len() - rows + 8 * k;
+    assert_eq!(rows % (17 * 8), 0, "a 128-byte header");
+    b[at..at + 8].copy_from_slice(&value.to_le_bytes());
+    std::fs::write(&path, b).expect("poses");
 }
 
 fn build(c: &mut Cases) {
@@ -256,6 +271,16 @@ fn build(c: &mut Cases) {
         ),
         ("study seeds 0", vec!["study", "--seeds", "0"], &["--seeds"]),
         ("study jobs 0", vec!["study", "--jobs", "0"], &["--jobs"]),
+        (
+            "study seeds huge",
+            vec!["study", "--seeds", "18446744073709551615"],
+            &["--seeds 18446744073709551615", "at most 10000"],
+        ),
+        (
+            "study seeds beyond the run bound",
+            vec!["study", "--seeds", "5000", "--motions", "velocity,static"],
+            &["at most 10000"],
+        ),
         (
             "study jobs negative",
             vec!["study", "--jobs", "-2"],
@@ -721,6 +746,26 @@ fn build(c: &mut Cases) {
             Box::new(|v| v["frames"][2]["file_path"] = serde_json::json!("../../../../etc/passwd")),
             "passwd",
         ),
+        (
+            "file path ending in a slash",
+            Box::new(|v| v["frames"][1]["file_path"] = serde_json::json!("./train/")),
+            "frames[1].file_path `./train/` names a folder",
+        ),
+        (
+            "empty file path",
+            Box::new(|v| v["frames"][2]["file_path"] = serde_json::json!("")),
+            "frames[2].file_path is empty",
+        ),
+        (
+            "blank file path",
+            Box::new(|v| v["frames"][1]["file_path"] = serde_json::json!("  ")),
+            "frames[1].file_path is empty",
+        ),
+        (
+            "file path that is the dataset folder",
+            Box::new(|v| v["frames"][0]["file_path"] = serde_json::json!(".")),
+            "frames[0].file_path `.` names a folder",
+        ),
     ];
     for (name, edit, word) in json_edits {
         let dir = c.dir("dnerf");
@@ -994,6 +1039,21 @@ fn build(c: &mut Cases) {
             "frame not a png",
             Box::new(|d| std::fs::write(d.join("cam08/images/0001.png"), b"nope").expect("w")),
             "0001.png",
+        ),
+        (
+            "image height of 9e15 pixels",
+            Box::new(|d| set_pose_entry(d, 4, 9e15)),
+            "H = 9000000000000000 pixels is too large",
+        ),
+        (
+            "image width of a half pixel",
+            Box::new(|d| set_pose_entry(d, 9, 0.5)),
+            "W = 0.5 is not a positive number of pixels",
+        ),
+        (
+            "image height not whole",
+            Box::new(|d| set_pose_entry(d, 4, 200.5)),
+            "H = 200.5 is not a whole number",
         ),
         (
             "times file short",

@@ -74,6 +74,11 @@ pub fn parse_mask(s: &str) -> Result<Mask<f32>, String> {
     let (kind, rest) = s.split_once(':').ok_or_else(|| {
         format!("mask `{s}`: expected sphere:CX,CY,CZ,R or box:X0,Y0,Z0,X1,Y1,Z1")
     })?;
+    if rest.matches("soft=").count() > 1 {
+        return Err(format!(
+            "mask `{s}`: `soft=` is given more than once; give one edge width"
+        ));
+    }
     let (rest, edge) = match rest.split_once(",soft=") {
         Some((r, w)) => {
             let w = w
@@ -300,6 +305,8 @@ mod tests {
             "sphere:0,0,0,inf",
             "sphere:1e39,0,0,1",
             "sphere:0,0,0,1,soft=0",
+            "sphere:0,0,0,1,soft=0.1,soft=0.2",
+            "box:0,0,0,1,1,1,soft=0.1,soft=0.1",
             "sphere:0,0,0,1,soft=-0.1",
             "sphere:0,0,0,1,soft=nan",
             "box:0,0,0,1,1,nan",

@@ -259,9 +259,19 @@ impl TrainConfig {
     fn merge_value(&self, over: toml::Value) -> Result<Self, String> {
         let mut base = toml::Value::try_from(self).map_err(|e| e.to_string())?;
         merge(&mut base, over);
+        let lookup = base.clone();
         serde_path_to_error::deserialize(base).map_err(|e| {
+            let path = e.path().to_string();
             let msg = e.inner().message().trim().to_string();
-            format!("{}: {msg}", e.path())
+            // A choice (an enum) given as a number or a boolean: the TOML reader says
+            // "unit variant, expected string only"; say what is wanted instead.
+            let value = path.split('.').try_fold(&lookup, |v, k| v.get(k));
+            match value {
+                Some(v) if msg.contains("variant") && !v.is_str() => {
+                    format!("{path}: expected one of its names in quotes, got {v}")
+                }
+                _ => format!("{path}: {msg}"),
+            }
         })
     }
 
@@ -359,6 +369,7 @@ impl TrainConfig {
             "field.hexplane.multires entries must be at least 1 (spatial resolution multipliers)",
         )?;
         self.check_field_memory()?;
+        self.check_gaussian_memory()?;
         chk(
             self.loss.lambda_coherence == 0.0 || self.loss.coherence_samples >= 2,
             "loss.coherence_samples must be at least 2 when loss.lambda_coherence is not 0 \
@@ -442,6 +453,31 @@ impl TrainConfig {
                 "{shape}: the field's size does not fit in memory at all; lower the resolution, channels or width"
             )
         })
+    }
+
+    /// The Gaussians' memory, estimated before anything is allocated: at most
+    /// `max(init.random_points, densify.max_gaussians)` Gaussians, each with its position,
+    /// scale, rotation, opacity and SH colour and a state per anchor, held four times in f32
+    /// (parameters, gradient, Adam's two moments). Refused above [`MAX_FIELD_BYTES`] (the same
+    /// bound as the field's), with the estimate.
+    fn check_gaussian_memory(&self) -> Result<(), String> {
+        let n = self.init.random_points.max(self.densify.max_gaussians) as f64;
+        let sh = (self.init.sh_degree.saturating_add(1) as f64).powi(2);
+        let per = 16.0 * (11.0 + 3.0 * sh + 10.0 * self.dynamics.anchors as f64);
+        let bytes = n * per;
+        if bytes <= MAX_FIELD_BYTES {
+            return Ok(());
+        }
+        Err(format!(
+            "init.random_points = {}, densify.max_gaussians = {}, dynamics.anchors = {}: up to \
+             {n:.0} Gaussians would need about {:.1} GiB (parameters, gradient and Adam's \
+             moments in f32), more than the {:.0} GiB evogs accepts; lower the counts",
+            self.init.random_points,
+            self.densify.max_gaussians,
+            self.dynamics.anchors,
+            bytes / GIB,
+            MAX_FIELD_BYTES / GIB
+        ))
     }
 
     /// Every real-valued setting is finite and in its range: rates and loss weights are
@@ -773,6 +809,27 @@ mod tests {
     }
 
     #[test]
+    fn a_choice_given_as_a_number_or_a_boolean_is_named() {
+        for (overlay, want) in [
+            (
+                "[dynamics]\nmotion = 3",
+                "dynamics.motion: expected one of its names in quotes, got 3",
+            ),
+            (
+                "[data]\nprotocol = true",
+                "data.protocol: expected one of its names in quotes, got true",
+            ),
+            (
+                "[data]\nformat = 1.5",
+                "data.format: expected one of its names in quotes, got 1.5",
+            ),
+        ] {
+            let e = TrainConfig::fast().merge_toml(overlay).expect_err(overlay);
+            assert_eq!(e, want);
+        }
+    }
+
+    #[test]
     fn non_finite_negative_and_out_of_range_values_are_rejected_by_name() {
         let c = TrainConfig::fast();
         for (overlay, field) in [
@@ -790,6 +847,9 @@ mod tests {
             ("[densify]\nmin_opacity = 1.5", "densify.min_opacity"),
             ("[densify]\nmin_opacity = nan", "densify.min_opacity"),
             ("[densify]\nmax_gaussians = 0", "densify.max_gaussians"),
+            ("[init]\nrandom_points = 99999999999", "init.random_points"),
+            ("[densify]\nmax_gaussians = 99999999999999", "GiB"),
+            ("[dynamics]\nanchors = 100000", "dynamics.anchors = 100000"),
             ("[data]\nbackground = [1.0, nan, 1.0]", "data.background[1]"),
             ("[data]\nbackground = [1.0, 1.0, 2.0]", "data.background[2]"),
             (

@@ -69,6 +69,19 @@ pub fn parse_transforms(text: &str, split: SplitName) -> Result<TransformsFile, 
         return Err("no frames".into());
     }
     for (i, f) in file.frames.iter().enumerate() {
+        if f.file_path.trim().is_empty() {
+            return Err(format!(
+                "frames[{i}].file_path is empty (it names the frame's image, relative to the \
+                 dataset folder)"
+            ));
+        }
+        let last = f.file_path.rsplit(['/', '\\']).next().unwrap_or_default();
+        if matches!(last, "" | "." | "..") {
+            return Err(format!(
+                "frames[{i}].file_path `{}` names a folder, not the frame's image",
+                f.file_path
+            ));
+        }
         if !f
             .transform_matrix
             .iter()

@@ -164,7 +164,15 @@ impl LlffPose {
             );
         }
         for (name, v) in [("H", self.height()), ("W", self.width())] {
-            if !(v >= 1.0 && (v - v.round()).abs() < 1e-6 && v < 1e6) {
+            if !(v >= 1.0) {
+                return Err(format!("{name} = {v} is not a positive number of pixels"));
+            }
+            if v >= MAX_IMAGE_SIDE {
+                return Err(format!(
+                    "{name} = {v} pixels is too large (an image side is below {MAX_IMAGE_SIDE})"
+                ));
+            }
+            if (v - v.round()).abs() >= 1e-6 {
                 return Err(format!("{name} = {v} is not a whole number of pixels"));
             }
         }
@@ -174,6 +182,9 @@ impl LlffPose {
         Ok(())
     }
 }
+
+/// The bound on an image side in pixels (a million: far beyond any camera).
+const MAX_IMAGE_SIDE: f64 = 1e6;
 
 /// Reads and checks `poses_bounds.npy` ([`parse_poses`]).
 ///

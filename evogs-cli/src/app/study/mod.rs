@@ -136,6 +136,10 @@ pub struct StudyOutcome {
     pub reused: usize,
 }
 
+/// The most runs one study plans: far beyond any budget of training runs, small enough that
+/// planning (a configuration per run) is instant.
+pub const MAX_RUNS: usize = 10_000;
+
 /// Parses a comma-separated list of motions (`velocity,deformation,static`).
 ///
 /// # Errors
@@ -222,7 +226,7 @@ fn plan(
     for &p in &args.protocols {
         for &m in &args.motions {
             for repeat in 0..args.seeds {
-                let seed = base.seed + repeat as u64;
+                let seed = base.seed.wrapping_add(repeat as u64);
                 let folder = format!("runs/{}-{}-s{repeat}", p.slug(), m.as_str());
                 let mut targs = TrainArgs {
                     data: Some(data.to_path_buf()),
@@ -356,6 +360,20 @@ pub fn run_study_with(
     }
     if args.jobs == 0 {
         return Err(CommandError::new("--jobs must be at least 1"));
+    }
+    let runs = args
+        .protocols
+        .len()
+        .checked_mul(args.motions.len())
+        .and_then(|n| n.checked_mul(args.seeds));
+    if runs.is_none_or(|n| n > MAX_RUNS) {
+        return Err(CommandError::new(format!(
+            "{} protocol(s) × {} motion(s) × --seeds {} is more runs than a study plans (at \
+             most {MAX_RUNS}); a study of that size is several studies",
+            args.protocols.len(),
+            args.motions.len(),
+            args.seeds
+        )));
     }
     let base = resolve_config(&TrainArgs {
         config: args.config.clone(),
