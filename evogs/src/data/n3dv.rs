@@ -164,7 +164,7 @@ impl LlffPose {
             );
         }
         for (name, v) in [("H", self.height()), ("W", self.width())] {
-            if !(v >= 1.0) {
+            if v.is_nan() || v < 1.0 {
                 return Err(format!("{name} = {v} is not a positive number of pixels"));
             }
             if v >= MAX_IMAGE_SIDE {
