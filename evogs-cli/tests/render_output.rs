@@ -124,6 +124,24 @@ fn frames_stream_to_disk_and_an_interrupt_keeps_what_is_finished() {
         "the finished frames, no partial GIF, index or temporary file"
     );
 
+    // An interrupt during an evaluation stops it before the next frame, writing nothing.
+    let e = evogs_cli::app::evaluate::evaluate_run(
+        &run,
+        evogs::data::SplitName::Test,
+        None,
+        None,
+        None,
+        &mut InterruptAt(1),
+    )
+    .expect_err("interrupted")
+    .to_string();
+    assert!(e.starts_with("interrupted after 1 of "), "{e}");
+    assert!(!interrupt::requested(), "the request is withdrawn");
+    assert!(
+        !run.join("metrics-test.json").exists(),
+        "no metrics written"
+    );
+
     // An orbit for a hundred million frames is a formula, not a list.
     let l = checkpoint::load_model(&run.join("checkpoint.safetensors")).expect("model");
     let ds = evogs_cli::app::load::load_dataset(&shipped_scene(), &l.cfg, false).expect("data");
@@ -183,6 +201,53 @@ fn an_exported_sequence_matches_single_exports_and_lists_its_files() {
     assert!(
         !cut.join(SEQUENCE_FILE).exists(),
         "no index for an incomplete sequence"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// Keeps the notes a command reports.
+#[derive(Default)]
+struct Notes(Vec<String>);
+
+impl Reporter for Notes {
+    fn start(&mut self, _: &str, _: u64) {}
+    fn progress(&mut self, _: u64, _: &str) {}
+    fn finish(&mut self) {}
+    fn info(&mut self, line: &str) {
+        self.0.push(line.to_string());
+    }
+}
+
+#[test]
+fn an_injection_mask_that_holds_no_gaussian_is_noted() {
+    use evogs_cli::app::inject::{InjectArgs, inject, parse_field, parse_mask};
+    let dir = common::scratch("inject-note");
+    let run = common::tiny_run(&dir);
+    let args = |mask: &str, out: &str| InjectArgs {
+        run: run.clone(),
+        out: dir.join(out),
+        mask: parse_mask(mask).expect("mask"),
+        field: parse_field("translate:0,0,1").expect("field"),
+        times: (0.0, 1.0, 2),
+        camera: CameraPath::Orbit,
+        gif: false,
+        data: Some(shipped_scene()),
+        format: None,
+        force: false,
+    };
+    let mut far = Notes::default();
+    inject(&args("sphere:100,100,100,0.5", "far"), &mut far).expect("frames");
+    assert!(
+        far.0.iter().any(|n| n.contains("holds no Gaussian")),
+        "{:?}",
+        far.0
+    );
+    let mut near = Notes::default();
+    inject(&args("sphere:0,0,0,100", "near"), &mut near).expect("frames");
+    assert!(
+        !near.0.iter().any(|n| n.contains("holds no Gaussian")),
+        "{:?}",
+        near.0
     );
     std::fs::remove_dir_all(dir).ok();
 }

@@ -3,11 +3,11 @@
 //! `RUN/metrics-<split>.csv`, and PSNR against time to `RUN/metrics-<split>.png` (the
 //! training window and times marked).
 
-use super::Reporter;
 use super::error::{CommandError, Context};
 use super::load::load_dataset;
 use super::paths::RunFolder;
 use super::plot::{TimePanel, TimeSeries, TrainingMarks, save_time_plot};
+use super::{Reporter, interrupt};
 use evogs::config::DataConfig;
 use evogs::data::{DataFormat, DataIdentity, SplitName, View};
 use evogs::eval::dynamic::MotionMasks;
@@ -164,17 +164,37 @@ pub fn evaluate_run(
     // The masks come from the ground truth alone: the temporal median of a pose is taken over
     // its frames in every split, whatever the time range.
     let mut masks = MotionMasks::new(ds.all_views());
-    let mut m = evaluate_views_masked(
+    // An interrupt stops before the next frame's metrics; nothing is written. (The mask
+    // source is asked once per frame, so it is where the request is seen.)
+    let mut done = 0usize;
+    let mut interrupted = false;
+    let result = evaluate_views_masked(
         &mut model,
         &selected,
         split,
         &ds.rig,
         l.cfg.data.background,
         Par::best(),
-        &mut |v, gt| masks.mask(v, gt),
-        |d, _| rep.progress(d as u64, ""),
-    )
-    .map_err(CommandError::new)?;
+        &mut |v, gt| {
+            if interrupt::take() {
+                interrupted = true;
+                return Err(String::from("interrupted"));
+            }
+            masks.mask(v, gt)
+        },
+        |d, _| {
+            done = d;
+            rep.progress(d as u64, "");
+        },
+    );
+    if interrupted {
+        rep.finish();
+        return Err(CommandError::new(format!(
+            "interrupted after {done} of {} frames: no metrics written",
+            selected.len()
+        )));
+    }
+    let mut m = result.map_err(CommandError::new)?;
     rep.finish();
     if let Some(note) = &m.dynamic_note {
         rep.info(note);

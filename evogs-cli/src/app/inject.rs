@@ -228,6 +228,8 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
     let mut splats = Splats::default();
     let mut rasterizer = TiledRasterizer::new();
     rep.start("inject", count as u64);
+    // Whether the mask held a Gaussian at any rendered time.
+    let mut touched = false;
     for i in 0..count {
         out.check_interrupt(count)?;
         let t = frame_time(args.times, i);
@@ -245,6 +247,12 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
         let mut mixed = Mix::new(args.mask.clone(), injected, &mut model.field, frame);
         integrate(&mut mixed, &mut stepper, &grid, &mut y);
         model.splats_from_state(&y, &mut splats);
+        touched = touched
+            || splats
+                .means
+                .iter()
+                .enumerate()
+                .any(|(p, &x)| args.mask.weight(p, x) > 0.0);
         let mut img = render_tiled(&splats, &cams.get(i)?, &opts, &mut rasterizer)
             .raster
             .rgb;
@@ -255,7 +263,22 @@ pub fn inject(args: &InjectArgs, rep: &mut dyn Reporter) -> Result<FramesWritten
         rep.progress(i as u64 + 1, &format!("t = {t:.3}"));
     }
     rep.finish();
+    if !touched {
+        rep.info(&format!(
+            "note: the mask holds no Gaussian at any of the {count} rendered times, so the \
+             frames are those of a plain render; move or widen the mask (the run's field box is \
+             {})",
+            field_box(&model)
+        ));
+    }
     out.finish()
+}
+
+/// The run's field box as `[x0, y0, z0] to [x1, y1, z1]`.
+fn field_box(model: &evogs::model::Model<f32>) -> String {
+    let (lo, hi) = model.field.hexplane().aabb();
+    let r = |v: [f64; 3]| format!("[{:.2}, {:.2}, {:.2}]", v[0], v[1], v[2]);
+    format!("{} to {}", r(lo), r(hi))
 }
 
 #[cfg(test)]
