@@ -480,6 +480,61 @@ fn build(c: &mut Cases) {
     // ---- configurations (a valid scene, a bad configuration: no run folder appears)
     let configs: &[(&str, &str, &str)] = &[
         (
+            "random points beyond memory",
+            "[init]\nrandom_points = 99999999999\n",
+            "init.random_points = 99999999999",
+        ),
+        (
+            "max gaussians beyond memory",
+            "[densify]\nmax_gaussians = 99999999999999\n",
+            "GiB",
+        ),
+        (
+            "anchors beyond memory",
+            "[dynamics]\nanchors = 100000\n",
+            "dynamics.anchors = 100000",
+        ),
+        (
+            "motion as a number",
+            "[dynamics]\nmotion = 3\n",
+            "dynamics.motion: expected one of its names in quotes, got 3",
+        ),
+        (
+            "protocol as a boolean",
+            "[data]\nprotocol = true\n",
+            "data.protocol: expected one of its names in quotes",
+        ),
+        (
+            "format as a number",
+            "[data]\nformat = 2\n",
+            "data.format: expected one of its names in quotes",
+        ),
+        (
+            "hop law as a number",
+            "[hop]\nlaw = 2\n",
+            "hop.law: expected one of its names in quotes",
+        ),
+        (
+            "hexplane resolution beyond memory",
+            "[field.hexplane]\nresolution = [100000, 100000, 100000, 100000]\n",
+            "GiB",
+        ),
+        (
+            "width as text",
+            "[field]\nwidth = \"wide\"\n",
+            "field.width",
+        ),
+        (
+            "a key of the top table after the last table",
+            "seed = -4\n",
+            "field.hexplane.seed: unknown field",
+        ),
+        (
+            "background as text",
+            "[data]\nbackground = \"white\"\n",
+            "data.background",
+        ),
+        (
             "position lr nan",
             "[optim]\nposition_lr_init = nan\n",
             "position_lr_init",
@@ -1243,6 +1298,97 @@ fn build(c: &mut Cases) {
             }
             c.add(name, &args, expect, &[]);
         }
+        for (name, overlay, expect) in [
+            (
+                "resume with a --config of another seed",
+                "seed = 5\n",
+                "seed is",
+            ),
+            (
+                "resume with a --config of another motion",
+                "[dynamics]\nmotion = \"static\"\n",
+                "dynamics.motion",
+            ),
+            (
+                "resume with a --config of another stepper",
+                "[dynamics]\nmethod = \"euler\"\n",
+                "dynamics.method",
+            ),
+            (
+                "resume with a --config of another SSIM weight",
+                "[loss]\nlambda_ssim = 0.5\n",
+                "loss.lambda_ssim",
+            ),
+            (
+                "resume with a --config of another anchor count",
+                "[dynamics]\nanchors = 7\n",
+                "dynamics.anchors",
+            ),
+            (
+                "resume with a --config of another background",
+                "[data]\nbackground = [0.0, 0.0, 0.0]\n",
+                "data.background",
+            ),
+        ] {
+            let r = c.dir("resume-overlay");
+            common::copy_tree(&run, &r);
+            let overlay_file = r.join("overlay.toml");
+            std::fs::write(&overlay_file, overlay).expect("overlay");
+            c.add(
+                name,
+                &[
+                    &"train",
+                    &"--out",
+                    &r,
+                    &"--resume",
+                    &"--config",
+                    &overlay_file,
+                ],
+                &[expect, "overlay.toml"],
+                &[],
+            );
+        }
+        let r = c.dir("resume-copied-checkpoint");
+        common::copy_tree(&run, &r);
+        let cfg_path = r.join("config.toml");
+        let text = std::fs::read_to_string(&cfg_path).expect("config");
+        std::fs::write(&cfg_path, text.replace("seed = 0", "seed = 11")).expect("config");
+        c.add(
+            "resume a checkpoint copied under another run's configuration",
+            &[&"train", &"--out", &r, &"--resume"],
+            &["seed is 0 in the checkpoint, 11 from"],
+            &[],
+        );
+        let r = c.dir("resume-config-folder");
+        common::copy_tree(&run, &r);
+        std::fs::remove_file(r.join("config.toml")).expect("rm");
+        std::fs::create_dir(r.join("config.toml")).expect("folder");
+        c.add(
+            "resume with config.toml a folder",
+            &[&"train", &"--out", &r, &"--resume"],
+            &["config.toml", "is a folder"],
+            &[],
+        );
+        let r = c.dir("resume-data-record-folder");
+        common::copy_tree(&run, &r);
+        std::fs::remove_file(r.join("data.txt")).expect("rm");
+        std::fs::create_dir(r.join("data.txt")).expect("folder");
+        c.add(
+            "resume with the data record a folder",
+            &[&"train", &"--out", &r, &"--resume"],
+            &["data.txt", "is a folder"],
+            &[],
+        );
+        let r = c.dir("resume-checkpoint-folder");
+        common::copy_tree(&run, &r);
+        std::fs::remove_file(r.join("checkpoint.safetensors")).expect("rm");
+        std::fs::create_dir(r.join("checkpoint.safetensors")).expect("folder");
+        c.add(
+            "eval with the checkpoint a folder",
+            &[&"eval", &"--run", &r],
+            &["checkpoint.safetensors", "is a folder"],
+            &[],
+        );
         let r = c.dir("resume-config-file");
         common::copy_tree(&run, &r);
         let wider = r.join("wider.toml");
@@ -1523,6 +1669,202 @@ fn build(c: &mut Cases) {
             &["--times"],
             &[&x.join("one.ply")],
         );
+        let (ea, eb) = (x.join("loop-a.ply"), x.join("loop-b.ply"));
+        std::os::unix::fs::symlink(&eb, &ea).expect("link");
+        std::os::unix::fs::symlink(&ea, &eb).expect("link");
+        c.add(
+            "export onto a symlink loop",
+            &[&"export", &"--run", &run, &"--time", &"0.5", &"--out", &ea],
+            &["loop-a.ply", "loop of symbolic links"],
+            &[],
+        );
+        let a_file = x.join("a-file");
+        std::fs::write(&a_file, b"x").expect("file");
+        c.add(
+            "render into a file",
+            &[
+                &"render", &"--run", &run, &"--out", &a_file, &"--times", &"0:1:1",
+            ],
+            &["a-file"],
+            &[],
+        );
+        c.add(
+            "export a sequence into a file",
+            &[
+                &"export", &"--run", &run, &"--times", &"0:1:2", &"--out", &a_file,
+            ],
+            &["a-file"],
+            &[],
+        );
+        c.add(
+            "study with data that is a file",
+            &[
+                &"study",
+                &"--data",
+                &tiny,
+                &"--out",
+                &x.join("study"),
+                &"--iters",
+                &"1",
+            ],
+            &["this is a file"],
+            &[&x.join("study").join("study.json")],
+        );
+        c.add(
+            "render with data that is a file",
+            &[
+                &"render",
+                &"--run",
+                &run,
+                &"--data",
+                &tiny,
+                &"--out",
+                &x.join("r"),
+                &"--times",
+                &"0:1:1",
+            ],
+            &["this is a file"],
+            &[&x.join("r")],
+        );
+        for (name, file) in [
+            ("point cloud that is a folder", "points3d.ply"),
+            ("test transforms that is a folder", "transforms_test.json"),
+        ] {
+            let s = c.dir("scene-node");
+            small_scene(&s);
+            let p = s.join(file);
+            let _ = std::fs::remove_file(&p);
+            std::fs::create_dir_all(&p).expect("folder");
+            let o = s.join("run");
+            c.add(
+                name,
+                &[&"train", &"--data", &s, &"--out", &o, &"--config", &tiny],
+                &[file, "folder"],
+                &[&o],
+            );
+        }
+        for (name, file) in [
+            ("poses that is a folder", "poses_bounds.npy"),
+            ("frame times that is a folder", "times.txt"),
+        ] {
+            let s = c.dir("mv-node");
+            mv_scene(&s);
+            let p = s.join(file);
+            let _ = std::fs::remove_file(&p);
+            std::fs::create_dir_all(&p).expect("folder");
+            let o = s.join("run");
+            c.add(
+                name,
+                &[&"train", &"--data", &s, &"--out", &o, &"--config", &tiny],
+                &[file, "folder"],
+                &[&o],
+            );
+        }
+        if fifo.exists() {
+            let s = c.dir("transforms-fifo");
+            small_scene(&s);
+            let p = s.join("transforms_train.json");
+            std::fs::remove_file(&p).expect("rm");
+            let made = std::process::Command::new("mkfifo").arg(&p).status();
+            if made.is_ok_and(|m| m.success()) {
+                c.add(
+                    "transforms file that is a FIFO",
+                    &[&"train", &"--data", &s, &"--out", &out, &"--config", &tiny],
+                    &["transforms_train.json", "FIFO"],
+                    &[&out],
+                );
+            }
+        }
+        let latin1 = x.join("latin1.toml");
+        std::fs::write(&latin1, b"# caf\xe9\nseed = 1\n").expect("write");
+        c.add(
+            "config that is not UTF-8",
+            &[&"train", &"--data", d, &"--out", &out, &"--config", &latin1],
+            &["latin1.toml", "not UTF-8", "offset 5"],
+            &[&out],
+        );
+        let latin1_json = x.join("latin1.json");
+        std::fs::write(&latin1_json, b"{\"caf\xe9\": 1}").expect("write");
+        c.add(
+            "verify a file that is not UTF-8",
+            &[&"verify", &latin1_json],
+            &["latin1.json", "not UTF-8"],
+            &[],
+        );
+        let s = c.dir("transforms-latin1");
+        small_scene(&s);
+        let t = s.join("transforms_train.json");
+        let mut bytes = std::fs::read(&t).expect("json");
+        bytes.splice(1..1, [b' ', 0xff, b' ']);
+        std::fs::write(&t, bytes).expect("json");
+        c.add(
+            "transforms file that is not UTF-8",
+            &[&"train", &"--data", &s, &"--out", &out, &"--config", &tiny],
+            &["transforms_train.json", "not UTF-8"],
+            &[&out],
+        );
+        let s = c.dir("times-latin1");
+        mv_scene(&s);
+        std::fs::write(s.join("times.txt"), b"0.0\n\xff\n").expect("times");
+        c.add(
+            "frame times that are not UTF-8",
+            &[&"train", &"--data", &s, &"--out", &out, &"--config", &tiny],
+            &["times.txt", "not UTF-8"],
+            &[&out],
+        );
+        let dangling = x.join("dangling.ply");
+        std::os::unix::fs::symlink(x.join("no-folder").join("x.ply"), &dangling).expect("link");
+        c.add(
+            "export through a link into a missing folder",
+            &[
+                &"export", &"--run", &run, &"--time", &"0.5", &"--out", &dangling,
+            ],
+            &["dangling.ply"],
+            &[],
+        );
+        let link_to_file = x.join("link-to-file");
+        std::os::unix::fs::symlink(&a_file, &link_to_file).expect("link");
+        c.add(
+            "render into a link to a file",
+            &[
+                &"render",
+                &"--run",
+                &run,
+                &"--out",
+                &link_to_file,
+                &"--times",
+                &"0:1:1",
+            ],
+            &["link-to-file"],
+            &[],
+        );
+        for (name, seeds, motions) in [
+            (
+                "study of one motion beyond the run bound",
+                "10001",
+                "velocity",
+            ),
+            (
+                "study of three motions beyond the run bound",
+                "3334",
+                "velocity,deformation,static",
+            ),
+        ] {
+            c.add(
+                name,
+                &[
+                    &"study",
+                    &"--seeds",
+                    &seeds,
+                    &"--motions",
+                    &motions,
+                    &"--out",
+                    &x.join("st"),
+                ],
+                &["at most 10000"],
+                &[&x.join("st")],
+            );
+        }
         let huge = x.join("huge.toml");
         std::fs::write(&huge, vec![b'#'; (1 << 20) + 1]).expect("huge");
         c.add(
@@ -1601,8 +1943,8 @@ fn every_bad_input_gets_one_clear_error_and_leaves_nothing_behind() {
     build(&mut cases);
     let n = cases.list.len();
     assert!(
-        n >= 100,
-        "the suite has {n} cases; it should have at least 100"
+        n >= 250,
+        "the suite has {n} cases; it should have at least 250"
     );
     let failures: Vec<String> = std::thread::scope(|s| {
         let chunks: Vec<&[Case]> = cases.list.chunks(n.div_ceil(2)).collect();

@@ -88,6 +88,15 @@ fn kind_of(t: std::fs::FileType) -> &'static str {
     }
 }
 
+/// Whether anything is at `path` (a file, a folder, a FIFO, a link, even a broken one). A
+/// reader that treats a missing optional file as absent asks this, not
+/// [`Path::is_file`], so that a folder or a FIFO in the file's place is refused by name
+/// instead of silently taken for "no file".
+#[must_use]
+pub fn present(path: &Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok()
+}
+
 /// Checks that `path` is a regular file (following symbolic links) and returns its size.
 ///
 /// # Errors

@@ -809,6 +809,68 @@ mod tests {
     }
 
     #[test]
+    fn every_key_with_a_bad_value_gets_one_plain_line_naming_it() {
+        let fast = TrainConfig::fast();
+        // Every leaf key as (table path, key), nested tables included.
+        fn leaves(path: &str, v: &toml::Value, out: &mut Vec<(Option<String>, String)>) {
+            for (k, x) in v.as_table().expect("table") {
+                if x.is_table() {
+                    let sub = if path.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{path}.{k}")
+                    };
+                    leaves(&sub, x, out);
+                } else {
+                    out.push(((!path.is_empty()).then(|| path.to_string()), k.clone()));
+                }
+            }
+        }
+        let mut keys = Vec::new();
+        leaves("", &toml::Value::try_from(&fast).expect("toml"), &mut keys);
+        assert!(keys.len() > 60, "{} keys", keys.len());
+        // An unknown key is refused in every table.
+        let mut tables: Vec<Option<String>> = keys.iter().map(|(t, _)| t.clone()).collect();
+        tables.dedup();
+        for t in tables {
+            let text = match &t {
+                Some(t) => format!("[{t}]\nno_such_key = 1\n"),
+                None => "no_such_key = 1\n".to_string(),
+            };
+            let e = fast.merge_toml(&text).expect_err(&text);
+            assert!(e.contains("no_such_key"), "{text}: {e}");
+        }
+        let mut checked = 0;
+        for (section, key) in &keys {
+            for bad in [
+                "\"x\"",
+                "-1",
+                "1e300",
+                "nan",
+                "[]",
+                "{}",
+                "true",
+                "99999999999999",
+            ] {
+                let text = match section {
+                    Some(s) => format!("[{s}]\n{key} = {bad}\n"),
+                    None => format!("{key} = {bad}\n"),
+                };
+                let Err(e) = fast
+                    .merge_toml(&text)
+                    .and_then(|c| c.validate().map(|()| c))
+                else {
+                    continue;
+                };
+                checked += 1;
+                assert!(!e.contains('\n') && !e.contains("   "), "{text}: {e:?}");
+                assert!(!e.contains("unit variant"), "{text}: {e}");
+            }
+        }
+        assert!(checked > 300, "{checked} errors checked");
+    }
+
+    #[test]
     fn a_choice_given_as_a_number_or_a_boolean_is_named() {
         for (overlay, want) in [
             (

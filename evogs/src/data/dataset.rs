@@ -357,7 +357,8 @@ pub fn read_point_cloud(path: &Path) -> Result<PointCloud, DataError> {
 /// As [`read_point_cloud`].
 pub fn optional_point_cloud(root: &Path) -> Result<Option<PointCloud>, DataError> {
     let ply = root.join("points3d.ply");
-    if ply.is_file() {
+    // Present as any node: one that is not a regular file is refused by its reader.
+    if crate::bounded::present(&ply) {
         read_point_cloud(&ply).map(Some)
     } else {
         Ok(None)

@@ -152,7 +152,7 @@ fn load_split(
 ) -> Result<Option<Vec<View>>, DataError> {
     let path = root.join(format!("transforms_{}.json", split.as_str()));
     // Absent: no such split. Present as anything but a regular file: an error that says so.
-    if std::fs::symlink_metadata(&path).is_err() {
+    if !bounded::present(&path) {
         return Ok(None);
     }
     let p = path.display().to_string();
@@ -185,13 +185,14 @@ fn load_split(
 /// Loads (in parallel with rayon) and checks the images: all of one size.
 fn load_images(views: &mut [View], opts: &LoadOptions, json: &str) -> Result<(), DataError> {
     let load = |v: &View| -> Result<(usize, usize, Option<Image<f32>>), DataError> {
-        if !v.file.is_file() {
+        if !bounded::present(&v.file) {
             return Err(DataError::Missing {
                 path: v.file.display().to_string(),
                 what: "image listed in the transforms",
             });
         }
         if !opts.load_images {
+            bounded::regular_file_size(&v.file, "a frame")?;
             let (w, h) = image::image_dimensions(&v.file).map_err(|e| DataError::Invalid {
                 path: v.file.display().to_string(),
                 msg: format!("cannot read image size: {e}"),

@@ -55,7 +55,7 @@ impl DataFormat {
             return Ok(self);
         }
         // Present as any node: one that is not a regular file is named by its reader.
-        let present = |name: &str| std::fs::symlink_metadata(root.join(name)).is_ok();
+        let present = |name: &str| crate::bounded::present(&root.join(name));
         let (dnerf, n3dv) = (
             present("transforms_train.json"),
             present("poses_bounds.npy"),

@@ -310,7 +310,7 @@ fn frame_names(images: &Path) -> Result<Vec<String>, DataError> {
 fn frame_times(root: &Path, opts: &LoadOptions, count: usize) -> Result<Vec<f64>, DataError> {
     let file = match &opts.times_file {
         Some(f) => Some(root.join(f)),
-        None => Some(root.join("times.txt")).filter(|p| p.is_file()),
+        None => Some(root.join("times.txt")).filter(|p| crate::bounded::present(p)),
     };
     let Some(file) = file else {
         let denom = count.saturating_sub(1).max(1) as f64;
@@ -481,7 +481,7 @@ fn camera_frame_size(
 /// times file, a bad `points3d.ply`, and (when decoding) an undecodable frame.
 pub(super) fn load(root: &Path, opts: &LoadOptions) -> Result<Dataset, DataError> {
     let poses_file = root.join("poses_bounds.npy");
-    if !poses_file.is_file() {
+    if !crate::bounded::present(&poses_file) {
         return Err(DataError::Missing {
             path: poses_file.display().to_string(),
             what: "camera poses of the N3DV layout",

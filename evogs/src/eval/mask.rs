@@ -163,7 +163,7 @@ pub fn motion_mask_path(file: &Path) -> PathBuf {
 /// An unreadable file, or one whose size is not the frame's.
 pub fn read_motion_mask(view: &View) -> Result<Option<MotionMask>, String> {
     let path = motion_mask_path(&view.file);
-    if !path.is_file() {
+    if !crate::bounded::present(&path) {
         return Ok(None);
     }
     crate::bounded::regular_file_size(&path, "a motion mask").map_err(|e| e.to_string())?;

@@ -69,6 +69,7 @@ impl TimeMapping {
 
 /// The shape of a HexPlane: channels per plane, base resolution and level multipliers.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct HexPlaneConfig {
     /// Channels per plane (C).
     pub channels: usize,

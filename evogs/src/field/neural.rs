@@ -62,6 +62,7 @@ pub fn gaussian_layout(count: usize) -> StateLayout {
 /// `v = a + ω × (x − c)`, measured worse: `docs/results.md`); `crate::config` reads it as
 /// it reads every removed key.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct NeuralFieldConfig {
     /// The HexPlane shape.
     pub hexplane: HexPlaneConfig,
