@@ -383,6 +383,16 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_default_step_is_the_cube_root_of_epsilon_times_the_magnitude() {
+        let h = f64::EPSILON.cbrt();
+        assert_eq!(default_step(0.0_f64), h);
+        assert_eq!(default_step(0.5_f64), h, "below one the step is absolute");
+        assert_eq!(default_step(4.0_f64), 4.0 * h);
+        assert_eq!(default_step(-8.0_f64), 8.0 * h);
+        assert_eq!(default_step(2.0_f32), 2.0 * f32::EPSILON.cbrt());
+    }
+
+    #[test]
     fn check_reports_worst_and_failures() {
         let r = GradCheck::new(1e-6, 1e-3).check(&[1.0, 2.0, 3.0], &[1.0, 2.1, 3.0]);
         assert!(!r.passed(), "0.1 off must fail");
