@@ -192,7 +192,10 @@ fn resume_config(
         stages.push((format!("--config {}", p.display()), cfg));
     }
     let mut asked = stages[stages.len() - 1].1.clone();
-    apply_flags(&mut asked, args, false);
+    // With --preset the configuration is resolved afresh, as a new run's is (its --iters
+    // shortens the warm-up and curriculum the same way); without, --iters only sets the
+    // count of the folder's configuration.
+    apply_flags(&mut asked, args, args.preset.is_some());
     stages.push((String::new(), asked.clone()));
     // Each key is credited to the last stage that set it; the flags by name.
     let source = |key: &str| {
@@ -728,6 +731,86 @@ pub fn train_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Keeps the notes.
+    #[derive(Default)]
+    struct Notes(Vec<String>);
+
+    impl Reporter for Notes {
+        fn start(&mut self, _: &str, _: u64) {}
+        fn progress(&mut self, _: u64, _: &str) {}
+        fn finish(&mut self) {}
+        fn info(&mut self, line: &str) {
+            self.0.push(line.to_string());
+        }
+    }
+
+    #[test]
+    fn a_resume_takes_safe_changes_and_refuses_the_others_by_source() {
+        let dir = std::env::temp_dir().join(format!("evogs-resume-rule-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("folder");
+        let run = RunFolder::new(&dir);
+        let new = TrainArgs {
+            preset: Some(Preset::Fast),
+            iters: Some(50),
+            ..TrainArgs::default()
+        };
+        let ckpt = resolve_config(&new).expect("config");
+        assert!(
+            ckpt.schedule.warmup_iters <= 50,
+            "--iters shortened the warm-up"
+        );
+        std::fs::write(run.config(), ckpt.to_toml()).expect("config.toml");
+        let resume = |args: TrainArgs| {
+            let mut notes = Notes::default();
+            let r = resume_config(
+                &TrainArgs {
+                    resume: true,
+                    ..args
+                },
+                &run,
+                &ckpt,
+                &mut notes,
+            );
+            (r.map_err(|e| e.to_string()), notes.0)
+        };
+        // The same command again: nothing differs.
+        let (got, notes) = resume(new.clone());
+        assert_eq!(got.expect("same"), ckpt);
+        assert!(notes.is_empty(), "{notes:?}");
+        // Extending: applied with a note.
+        let (got, notes) = resume(TrainArgs {
+            iters: Some(80),
+            ..TrainArgs::default()
+        });
+        assert_eq!(got.expect("extended").schedule.iterations, 80);
+        assert!(notes[0].contains("schedule.iterations = 80"), "{notes:?}");
+        assert!(notes[0].contains("from --iters"), "{notes:?}");
+        // Another motion: refused, naming the flag.
+        let (got, _) = resume(TrainArgs {
+            motion: Some(Motion::Deformation),
+            ..TrainArgs::default()
+        });
+        let e = got.expect_err("another motion");
+        assert!(
+            e.contains("dynamics.motion") && e.contains("from --motion"),
+            "{e}"
+        );
+        // An edited config.toml: refused, naming the file.
+        let edited = ckpt.to_toml().replace(
+            &format!("width = {}", ckpt.field.width),
+            &format!("width = {}", ckpt.field.width + 8),
+        );
+        std::fs::write(run.config(), edited).expect("config.toml");
+        let (got, _) = resume(TrainArgs::default());
+        let e = got.expect_err("another width");
+        assert!(
+            e.contains("field.width") && e.contains("config.toml"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     #[test]
     fn iters_that_shorten_the_curriculum_are_reported() {
