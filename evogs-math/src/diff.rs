@@ -385,11 +385,19 @@ mod tests {
     #[test]
     fn the_default_step_is_the_cube_root_of_epsilon_times_the_magnitude() {
         let h = f64::EPSILON.cbrt();
-        assert_eq!(default_step(0.0_f64), h);
-        assert_eq!(default_step(0.5_f64), h, "below one the step is absolute");
-        assert_eq!(default_step(4.0_f64), 4.0 * h);
-        assert_eq!(default_step(-8.0_f64), 8.0 * h);
-        assert_eq!(default_step(2.0_f32), 2.0 * f32::EPSILON.cbrt());
+        let bits = |x: f64| x.to_bits();
+        assert_eq!(bits(default_step(0.0_f64)), bits(h));
+        assert_eq!(
+            bits(default_step(0.5_f64)),
+            bits(h),
+            "below one the step is absolute"
+        );
+        assert_eq!(bits(default_step(4.0_f64)), bits(4.0 * h));
+        assert_eq!(bits(default_step(-8.0_f64)), bits(8.0 * h));
+        assert_eq!(
+            default_step(2.0_f32).to_bits(),
+            (2.0 * f32::EPSILON.cbrt()).to_bits()
+        );
     }
 
     #[test]
