@@ -171,3 +171,32 @@ fn bad_inputs_name_the_file_and_the_problem() {
         );
     }
 }
+
+#[test]
+fn a_byte_order_mark_is_read_past_and_the_data_identity_ignores_the_folder() {
+    let plain = scene_copy("bom-plain");
+    let marked = scene_copy("bom-marked");
+    for name in ["transforms_train.json"] {
+        let p = marked.join(name);
+        let mut bytes = vec![0xef, 0xbb, 0xbf];
+        bytes.extend(std::fs::read(&p).expect("json"));
+        std::fs::write(&p, bytes).expect("json");
+    }
+    let a = load(&plain).expect("plain");
+    let b = load(&marked).expect("with a byte-order mark");
+    assert_eq!(a.train.len(), b.train.len());
+    let (ia, ib) = (
+        evogs::data::DataIdentity::of(&a),
+        evogs::data::DataIdentity::of(&b),
+    );
+    assert!(ia.same_data(&ib), "{ia:?} {ib:?}");
+    assert_ne!(ia.folder, ib.folder);
+    // One training time changed: other data.
+    edit_json(&plain, |v| {
+        v["frames"][1]["time"] = serde_json::json!(0.123)
+    });
+    let c = load(&plain).expect("edited");
+    assert!(!ia.same_data(&evogs::data::DataIdentity::of(&c)));
+    std::fs::remove_dir_all(plain).ok();
+    std::fs::remove_dir_all(marked).ok();
+}
