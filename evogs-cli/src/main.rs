@@ -140,6 +140,16 @@ fn run(cli: Cli) -> CommandResult<Verdict> {
         }
         Cmd::Render(c) => output::frames(&render_sequence(&c.into(), None, &mut term)?),
         Cmd::Inject(c) => output::frames(&inject(&c.into(), &mut term)?),
+        Cmd::Bench(args) if args.machine => {
+            let threads = args.threads.unwrap_or_else(|| {
+                std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+            });
+            evogs_cli::app::Reporter::info(
+                &mut term,
+                &format!("measuring this machine's limits on 1 and {threads} thread(s)"),
+            );
+            output::machine(&evogs_cli::app::bench::machine::measure(threads, false));
+        }
         Cmd::Bench(args) => output::bench(&run_bench(&args, &mut term)?, args.json.as_deref()),
         Cmd::Export(c) => match (c.time, c.times) {
             (Some(_), _) if c.force => {

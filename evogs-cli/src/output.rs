@@ -80,6 +80,30 @@ pub(crate) fn bench(report: &BenchReport, json: Option<&Path>) {
     }
 }
 
+/// `evogs bench --machine`: the FMA peak and the read bandwidth per level.
+pub(crate) fn machine(m: &evogs_cli::app::bench::machine::MachineLimits) {
+    let cpu = evogs_cli::app::bench::cpu_model().unwrap_or_else(|| "unknown CPU".into());
+    println!("{cpu}; build for {}", m.isa);
+    println!(
+        "f32 FMA peak: {:.1} GFLOP/s on 1 thread, {:.1} GFLOP/s on {} threads",
+        m.fma_one_thread, m.fma_all_threads, m.threads
+    );
+    println!("read bandwidth (GB/s):");
+    println!(
+        "  {:<8} {:>14} {:>10} {:>12}",
+        "level",
+        "bytes/thread",
+        "1 thread",
+        format!("{} threads", m.threads)
+    );
+    for b in &m.bandwidth {
+        println!(
+            "  {:<8} {:>14} {:>10.1} {:>12.1}",
+            b.level, b.bytes_per_thread, b.one_thread, b.all_threads
+        );
+    }
+}
+
 /// `evogs export --time T`.
 pub(crate) fn export_one(gaussians: usize, t: f64, out: &Path) {
     println!("{gaussians} Gaussians at t = {t} -> {}", out.display());

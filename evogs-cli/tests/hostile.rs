@@ -1689,6 +1689,26 @@ fn build(c: &mut Cases) {
             &[],
         );
         c.add(
+            "train into a file",
+            &[
+                &"train",
+                &"--data",
+                d,
+                &"--out",
+                &a_file,
+                &"--config",
+                &tiny,
+            ],
+            &["a-file", "this is a regular file", "is a folder"],
+            &[],
+        );
+        c.add(
+            "study into a file",
+            &[&"study", &"--data", d, &"--out", &a_file, &"--iters", &"1"],
+            &["a-file", "this is a regular file"],
+            &[],
+        );
+        c.add(
             "export a sequence into a file",
             &[
                 &"export", &"--run", &run, &"--times", &"0:1:2", &"--out", &a_file,

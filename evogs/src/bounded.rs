@@ -97,6 +97,18 @@ pub fn present(path: &Path) -> bool {
     std::fs::symlink_metadata(path).is_ok()
 }
 
+/// What is at `path`, following links, in words (`a regular file`, `a folder`, `a FIFO
+/// (named pipe)`, `a device`, `a socket`); `None` when nothing is there.
+#[must_use]
+pub fn node_kind(path: &Path) -> Option<&'static str> {
+    let meta = std::fs::metadata(path).ok()?;
+    Some(if meta.is_file() {
+        "a regular file"
+    } else {
+        kind_of(meta.file_type())
+    })
+}
+
 /// Checks that `path` is a regular file (following symbolic links) and returns its size.
 ///
 /// # Errors

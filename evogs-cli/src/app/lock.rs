@@ -31,6 +31,12 @@ impl FolderLock {
     /// Another process holds the folder (its process id and command are named), or the
     /// folder or its lock file cannot be created.
     pub fn acquire(dir: &Path, command: &str) -> CommandResult<Self> {
+        if let Some(kind) = evogs::bounded::node_kind(dir).filter(|&k| k != "a folder") {
+            return Err(CommandError::at(
+                dir,
+                format!("this is {kind}; the output of `evogs {command}` is a folder"),
+            ));
+        }
         std::fs::create_dir_all(dir).doing(dir, "cannot create")?;
         let path = dir.join(LOCK_FILE);
         let mut file = OpenOptions::new()

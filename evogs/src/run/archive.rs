@@ -570,7 +570,7 @@ mod tests {
         assert_eq!(b.u64("x2"), None, "one array per name");
         assert_eq!(b.first_non_finite(), Some(("x", 1)), "the NaN comes back");
         let e = Archive::read(&dir.join("none.bin")).expect_err("missing file");
-        assert!(matches!(e, ArchiveError::Io { .. }), "{e}");
+        assert!(matches!(e, ArchiveError::Read(_)), "{e}");
         std::fs::remove_dir_all(dir).ok();
     }
 }

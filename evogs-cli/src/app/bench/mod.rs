@@ -8,6 +8,7 @@
 //! count, which the report checks through the losses).
 
 mod iteration;
+pub mod machine;
 mod report;
 pub mod scene;
 mod system;
@@ -133,6 +134,10 @@ pub struct BenchArgs {
     /// Scene seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Measure this machine's limits instead (the f32 FMA peak, and the read bandwidth of
+    /// data in L1, L2, L3 and memory, with one thread and with --threads).
+    #[arg(long)]
+    pub machine: bool,
 }
 
 impl Default for BenchArgs {
@@ -147,6 +152,7 @@ impl Default for BenchArgs {
             single_thread: true,
             json: None,
             seed: 0,
+            machine: false,
         }
     }
 }

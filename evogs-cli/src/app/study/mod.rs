@@ -192,6 +192,12 @@ fn total_threads() -> usize {
 
 /// Checks that `dir` can be created and written, leaving nothing behind.
 fn check_writable(dir: &Path) -> Result<(), CommandError> {
+    if let Some(kind) = evogs::bounded::node_kind(dir).filter(|&k| k != "a folder") {
+        return Err(CommandError::at(
+            dir,
+            format!("this is {kind}; the study's output is a folder"),
+        ));
+    }
     let fail = |e: std::io::Error| {
         CommandError::new(e)
             .context("the study folder cannot be written")
