@@ -50,6 +50,7 @@ fn a_tiny_bench_reports_consistent_figures() {
         single_thread: true,
         json: Some(json.clone()),
         seed: 7,
+        machine: false,
     };
     let report = run_bench(&args, &mut Silent).expect("the bench runs");
     assert_eq!(report.rows.len(), 2, "one row per motion");

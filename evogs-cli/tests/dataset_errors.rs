@@ -176,12 +176,10 @@ fn bad_inputs_name_the_file_and_the_problem() {
 fn a_byte_order_mark_is_read_past_and_the_data_identity_ignores_the_folder() {
     let plain = scene_copy("bom-plain");
     let marked = scene_copy("bom-marked");
-    for name in ["transforms_train.json"] {
-        let p = marked.join(name);
-        let mut bytes = vec![0xef, 0xbb, 0xbf];
-        bytes.extend(std::fs::read(&p).expect("json"));
-        std::fs::write(&p, bytes).expect("json");
-    }
+    let p = marked.join("transforms_train.json");
+    let mut bytes = vec![0xef, 0xbb, 0xbf];
+    bytes.extend(std::fs::read(&p).expect("json"));
+    std::fs::write(&p, bytes).expect("json");
     let a = load(&plain).expect("plain");
     let b = load(&marked).expect("with a byte-order mark");
     assert_eq!(a.train.len(), b.train.len());
@@ -193,7 +191,7 @@ fn a_byte_order_mark_is_read_past_and_the_data_identity_ignores_the_folder() {
     assert_ne!(ia.folder, ib.folder);
     // One training time changed: other data.
     edit_json(&plain, |v| {
-        v["frames"][1]["time"] = serde_json::json!(0.123)
+        v["frames"][1]["time"] = serde_json::json!(0.123);
     });
     let c = load(&plain).expect("edited");
     assert!(!ia.same_data(&evogs::data::DataIdentity::of(&c)));

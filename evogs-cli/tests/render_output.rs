@@ -6,12 +6,12 @@
 mod common;
 
 use evogs::run::checkpoint;
-use evogs_cli::app::Reporter;
 use evogs_cli::app::export::{SEQUENCE_FILE, Sequence, export, export_sequence};
 use evogs_cli::app::frame_writer::{FrameIndex, INDEX_FILE};
 use evogs_cli::app::interrupt;
 use evogs_cli::app::paths::shipped_scene;
 use evogs_cli::app::render::{CameraPath, FrameCameras, RenderArgs, path_cameras, render_sequence};
+use evogs_cli::app::{Notes, Reporter};
 use std::path::{Path, PathBuf};
 
 /// Asks for an interrupt once `at` frames are done (what Ctrl-C does mid-render).
@@ -203,19 +203,6 @@ fn an_exported_sequence_matches_single_exports_and_lists_its_files() {
         "no index for an incomplete sequence"
     );
     std::fs::remove_dir_all(dir).ok();
-}
-
-/// Keeps the notes a command reports.
-#[derive(Default)]
-struct Notes(Vec<String>);
-
-impl Reporter for Notes {
-    fn start(&mut self, _: &str, _: u64) {}
-    fn progress(&mut self, _: u64, _: &str) {}
-    fn finish(&mut self) {}
-    fn info(&mut self, line: &str) {
-        self.0.push(line.to_string());
-    }
 }
 
 #[test]

@@ -120,11 +120,7 @@ fn destination(path: &Path) -> io::Result<PathBuf> {
         if t.is_file() {
             return Ok(p);
         }
-        let kind = if t.is_dir() {
-            "a folder"
-        } else {
-            kind_of_special(t)
-        };
+        let kind = crate::bounded::kind_of(t);
         let what = if p == path {
             format!("it is {kind}")
         } else {
@@ -139,25 +135,6 @@ fn destination(path: &Path) -> io::Result<PathBuf> {
         io::ErrorKind::InvalidInput,
         "it is a loop of symbolic links",
     ))
-}
-
-/// What a node that is neither a file, a folder nor a link is, in words.
-fn kind_of_special(t: std::fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt as _;
-        if t.is_fifo() {
-            return "a FIFO (named pipe)";
-        }
-        if t.is_char_device() || t.is_block_device() {
-            return "a device";
-        }
-        if t.is_socket() {
-            return "a socket";
-        }
-    }
-    let _ = t;
-    "not a regular file"
 }
 
 impl Write for AtomicFile {

@@ -66,8 +66,9 @@ pub enum ReadError {
     },
 }
 
-/// What kind of node a file type is, in words.
-fn kind_of(t: std::fs::FileType) -> &'static str {
+/// What kind of node a file type is, in words (`a folder`, `a FIFO (named pipe)`,
+/// `a device`, `a socket`; `not a regular file` for anything else that is not a file).
+pub(crate) fn kind_of(t: std::fs::FileType) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt as _;

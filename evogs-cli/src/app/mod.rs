@@ -44,3 +44,17 @@ impl Reporter for Silent {
     fn finish(&mut self) {}
     fn info(&mut self, _: &str) {}
 }
+
+/// A [`Reporter`] that shows nothing and keeps the information lines (notes, warnings), for
+/// callers and tests that read them.
+#[derive(Debug, Default)]
+pub struct Notes(pub Vec<String>);
+
+impl Reporter for Notes {
+    fn start(&mut self, _: &str, _: u64) {}
+    fn progress(&mut self, _: u64, _: &str) {}
+    fn finish(&mut self) {}
+    fn info(&mut self, line: &str) {
+        self.0.push(line.to_string());
+    }
+}

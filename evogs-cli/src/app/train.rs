@@ -732,21 +732,9 @@ pub fn train_with(
 mod tests {
     use super::*;
 
-    /// Keeps the notes.
-    #[derive(Default)]
-    struct Notes(Vec<String>);
-
-    impl Reporter for Notes {
-        fn start(&mut self, _: &str, _: u64) {}
-        fn progress(&mut self, _: u64, _: &str) {}
-        fn finish(&mut self) {}
-        fn info(&mut self, line: &str) {
-            self.0.push(line.to_string());
-        }
-    }
-
     #[test]
     fn a_resume_takes_safe_changes_and_refuses_the_others_by_source() {
+        use crate::app::Notes;
         let dir = std::env::temp_dir().join(format!("evogs-resume-rule-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("folder");
