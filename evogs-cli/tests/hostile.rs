@@ -1704,7 +1704,7 @@ fn build(c: &mut Cases) {
         );
         c.add(
             "study into a file",
-            &[&"study", &"--data", d, &"--out", &a_file, &"--iters", &"1"],
+            &[&"study", &"--out", &a_file, &"--iters", &"1"],
             &["a-file", "this is a regular file"],
             &[],
         );

@@ -70,7 +70,7 @@ fn unknown_and_malformed_files_give_errors_naming_them() {
 
     // Missing file.
     let e = verify_file(Path::new("/nonexistent/evogs/missing.json")).expect_err("missing");
-    assert!(matches!(e, VerifyError::Io { .. }), "{e}");
+    assert!(matches!(e, VerifyError::Read(_)), "{e}");
     assert!(e.to_string().contains("missing.json"), "{e}");
 
     // A missing field in a projection file: the error names the JSON path.

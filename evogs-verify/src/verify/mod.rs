@@ -48,15 +48,8 @@ use std::path::{Path, PathBuf};
 /// Why a file could not be verified.
 #[derive(Debug, thiserror::Error)]
 pub enum VerifyError {
-    /// The file could not be read.
-    #[error("{}: cannot read the file: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// The path is not a regular file, too large for a reference-vector file, or not text.
+    /// The file could not be read: missing, not a regular file, larger than a
+    /// reference-vector file can be, or not UTF-8 text.
     #[error(transparent)]
     Read(#[from] evogs::bounded::ReadError),
     /// The file is not JSON.
