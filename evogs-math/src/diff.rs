@@ -383,6 +383,108 @@ mod tests {
     use super::*;
 
     #[test]
+    fn central_jvp_steps_by_the_documented_h_and_divides_by_2h() {
+        // The points it evaluates at are x ± h·v with h = ε^(1/3)·max(1, |x|∞)/|v|∞.
+        let x = [50.0_f64, -1.25];
+        let v = [300.0_f64, -500.0];
+        let mut seen: Vec<Vec<f64>> = Vec::new();
+        let mut out = [0.0; 2];
+        central_jvp(
+            |p: &[f64], o: &mut [f64]| {
+                seen.push(p.to_vec());
+                o[0] = 2.0 * p[0] - 3.0 * p[1];
+                o[1] = 0.5 * p[1];
+            },
+            &x,
+            &v,
+            &mut out,
+        );
+        let h = f64::EPSILON.cbrt() * 50.0 / 500.0;
+        assert_eq!(seen.len(), 2);
+        for (k, sign) in [(0, 1.0), (1, -1.0)] {
+            for i in 0..2 {
+                let want = x[i] + sign * h * v[i];
+                assert!(
+                    (seen[k][i] - want).abs() <= 1e-12 * want.abs().max(1.0),
+                    "{seen:?}"
+                );
+            }
+        }
+        // A linear map: J v exactly (up to rounding).
+        let jv = [2.0 * v[0] - 3.0 * v[1], 0.5 * v[1]];
+        for i in 0..2 {
+            assert!(
+                (out[i] - jv[i]).abs() <= 1e-6 * jv[i].abs(),
+                "{out:?} {jv:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_dot_test_measures_the_relative_mismatch_and_sees_a_transposition() {
+        // ⟨J v, w⟩ = 2vw against ⟨v, Jᵀ w⟩ = 3vw: mismatch |2 − 3|/3 = 1/3 exactly.
+        let r = vjp_dot_test(
+            |v: &[f64], o: &mut [f64]| o[0] = 2.0 * v[0],
+            |w: &[f64], o: &mut [f64]| o[0] = 3.0 * w[0],
+            1,
+            1,
+            5,
+        );
+        assert!((r - 1.0 / 3.0).abs() < 1e-12, "{r}");
+        // A VJP that forgot to transpose: right along (1, 1), wrong in random directions.
+        let j = [[1.0, 2.0], [3.0, 4.0]];
+        for seed in 0..4 {
+            let r = vjp_dot_test(
+                |v: &[f64], o: &mut [f64]| {
+                    for i in 0..2 {
+                        o[i] = j[i][0] * v[0] + j[i][1] * v[1];
+                    }
+                },
+                |w: &[f64], o: &mut [f64]| {
+                    for i in 0..2 {
+                        o[i] = j[i][0] * w[0] + j[i][1] * w[1];
+                    }
+                },
+                2,
+                2,
+                seed,
+            );
+            assert!(
+                r > 1e-6,
+                "seed {seed}: the transposition was not seen ({r})"
+            );
+        }
+    }
+
+    #[test]
+    fn grad_check_reports_its_errors_and_ratios_exactly() {
+        let c = GradCheck::new(0.0, 0.05);
+        let r = c.check(&[1.0_f64, 2.0, 0.0, 4.0], &[1.1, 2.0, 0.0, 4.2]);
+        let (e0, e3) = ((1.0_f64 - 1.1).abs(), (4.0_f64 - 4.2).abs());
+        assert_eq!(r.max_abs_err.to_bits(), e3.to_bits(), "{r:?}");
+        assert_eq!(r.max_rel_err.to_bits(), (e0 / 1.1).to_bits(), "{r:?}");
+        assert_eq!(r.worst_index, Some(0), "{r:?}");
+        assert_eq!(
+            r.worst_ratio.to_bits(),
+            (e0 / (0.05 * 1.1)).to_bits(),
+            "{r:?}"
+        );
+        let failed: Vec<usize> = r.failures.iter().map(|f| f.index).collect();
+        assert_eq!(failed, [0], "{r:?}: 4.2 against 4.0 is within 5 %");
+        // Zero allowance: any error fails, no error passes.
+        let strict = GradCheck::new(0.0, 0.0);
+        let r = strict.check(&[1.0_f64], &[1.5]);
+        assert!(r.worst_ratio.is_infinite() && !r.passed(), "{r:?}");
+        let r = strict.check(&[0.0_f64, 3.0], &[0.0, 3.0]);
+        assert_eq!(r.worst_ratio.to_bits(), 0.0_f64.to_bits(), "{r:?}");
+        assert!(r.passed() && r.failures.is_empty(), "{r:?}");
+        // An entry within tolerance after a failing one keeps the worst.
+        let r = c.check(&[1.0_f64, 1.0], &[2.0, 1.01]);
+        assert_eq!(r.worst_index, Some(0), "{r:?}");
+        assert_eq!(r.max_rel_err.to_bits(), 0.5_f64.to_bits(), "{r:?}");
+    }
+
+    #[test]
     fn the_default_step_is_the_cube_root_of_epsilon_times_the_magnitude() {
         let h = f64::EPSILON.cbrt();
         let bits = |x: f64| x.to_bits();
