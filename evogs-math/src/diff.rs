@@ -431,6 +431,36 @@ mod tests {
             5,
         );
         assert!((r - 1.0 / 3.0).abs() < 1e-12, "{r}");
+        // The same the other way round: the scale is then the JVP side's.
+        let r = vjp_dot_test(
+            |v: &[f64], o: &mut [f64]| o[0] = 3.0 * v[0],
+            |w: &[f64], o: &mut [f64]| o[0] = 2.0 * w[0],
+            1,
+            1,
+            5,
+        );
+        assert!((r - 1.0 / 3.0).abs() < 1e-12, "{r}");
+        // Wrong VJPs that agree with the JVP along v = (1, 1), or along w = (1, 1), for every
+        // other vector: random directions in both see them.
+        type Map = fn(&[f64], &mut [f64]);
+        let jvp: Map = |v, o| {
+            o[0] = v[0] + 2.0 * v[1];
+            o[1] = 3.0 * v[0] + 4.0 * v[1];
+        };
+        let along_ones_in: Map = |w, o| {
+            o[0] = 3.0 * w[0] + 7.0 * w[1];
+            o[1] = 0.0;
+        };
+        let along_ones_out: Map = |w, o| {
+            o[0] = 4.0 * w[0];
+            o[1] = 6.0 * w[1];
+        };
+        for wrong in [along_ones_in, along_ones_out] {
+            for seed in 0..4 {
+                let r = vjp_dot_test(jvp, wrong, 2, 2, seed);
+                assert!(r > 1e-6, "seed {seed}: a wrong VJP passed ({r})");
+            }
+        }
         // A VJP that forgot to transpose: right along (1, 1), wrong in random directions.
         let j = [[1.0, 2.0], [3.0, 4.0]];
         for seed in 0..4 {
@@ -478,10 +508,52 @@ mod tests {
         let r = strict.check(&[0.0_f64, 3.0], &[0.0, 3.0]);
         assert_eq!(r.worst_ratio.to_bits(), 0.0_f64.to_bits(), "{r:?}");
         assert!(r.passed() && r.failures.is_empty(), "{r:?}");
-        // An entry within tolerance after a failing one keeps the worst.
+        assert_eq!(r.worst_index, Some(0), "{r:?}: the first of equal ratios");
+        // An entry within tolerance after a failing one keeps the worst; a worse one later
+        // takes it; of equal ratios the first stays.
         let r = c.check(&[1.0_f64, 1.0], &[2.0, 1.01]);
         assert_eq!(r.worst_index, Some(0), "{r:?}");
         assert_eq!(r.max_rel_err.to_bits(), 0.5_f64.to_bits(), "{r:?}");
+        let r = c.check(&[1.0_f64, 1.0], &[1.01, 2.0]);
+        assert_eq!(r.worst_index, Some(1), "{r:?}");
+        let r = c.check(&[1.0_f64, 1.0], &[1.1, 1.1]);
+        assert_eq!(r.worst_index, Some(0), "{r:?}");
+        // An error exactly at the allowance passes.
+        let r = GradCheck::new(0.5, 0.0).check(&[1.0_f64], &[1.5]);
+        assert_eq!(r.worst_ratio.to_bits(), 1.0_f64.to_bits(), "{r:?}");
+        assert!(r.passed(), "{r:?}");
+    }
+
+    #[test]
+    fn a_report_prints_its_figures_and_at_most_twelve_failures() {
+        let c = GradCheck::new(0.0, 1e-3);
+        let ok = c.check(&[1.0_f64, 2.0], &[1.0, 2.0]);
+        ok.assert_passed("equal slices");
+        let text = ok.to_string();
+        assert!(text.starts_with("2 entries, max abs err 0.000e0"), "{text}");
+        assert!(!text.contains("failures"), "{text}");
+        let twelve = c.check(&[1.0_f64; 12], &[2.0; 12]);
+        let text = twelve.to_string();
+        assert!(
+            text.contains("; 12 failures: [0] analytic 1.000000e0 vs numeric 2.000000e0;"),
+            "{text}"
+        );
+        assert!(!text.ends_with(" …"), "{text}");
+        let thirteen = c.check(&[1.0_f64; 13], &[2.0; 13]);
+        let text = thirteen.to_string();
+        assert!(
+            text.contains("13 failures") && text.ends_with(" …"),
+            "{text}"
+        );
+        assert!(!text.contains("[12]"), "{text}: the first twelve only");
+    }
+
+    #[test]
+    #[should_panic(expected = "gradient check failed for the example: 1 entries")]
+    fn a_failed_report_panics_when_asserted() {
+        GradCheck::new(0.0, 1e-3)
+            .check(&[1.0_f64], &[2.0])
+            .assert_passed("the example");
     }
 
     #[test]

@@ -284,6 +284,15 @@ mod tests {
     use super::Dual;
     use crate::Real;
 
+    #[test]
+    fn duals_compare_by_their_real_part() {
+        // Equality and order follow the value, not its derivative, so that generic code
+        // branches on a dual number as it does on the plain one.
+        assert!(Dual::new(1.0_f64, 2.0) == Dual::new(1.0, 5.0));
+        assert!(Dual::new(1.0_f64, 0.0) != Dual::new(2.0, 0.0));
+        assert!(Dual::new(1.0_f64, 9.0) < Dual::new(2.0, 0.0));
+    }
+
     fn check(f: impl Fn(Dual<f64>) -> Dual<f64>, g: impl Fn(f64) -> f64, x: f64) {
         let d = f(Dual::variable(x)).eps;
         let h = 1e-6;
