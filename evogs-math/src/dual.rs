@@ -285,6 +285,62 @@ mod tests {
     use crate::Real;
 
     #[test]
+    fn negation_and_subtraction_act_on_both_parts() {
+        let n = -Dual::new(1.5_f64, 2.0);
+        assert_eq!(
+            (n.re.to_bits(), n.eps.to_bits()),
+            ((-1.5_f64).to_bits(), (-2.0_f64).to_bits())
+        );
+        let mut a = Dual::new(3.0_f64, 1.0);
+        a -= Dual::new(1.0, 4.0);
+        assert_eq!(
+            (a.re.to_bits(), a.eps.to_bits()),
+            (2.0_f64.to_bits(), (-3.0_f64).to_bits())
+        );
+        let mut b = Dual::new(3.0_f64, 1.0);
+        b += Dual::new(1.0, 4.0);
+        assert_eq!(
+            (b.re.to_bits(), b.eps.to_bits()),
+            (4.0_f64.to_bits(), 5.0_f64.to_bits())
+        );
+    }
+
+    /// Both parts of a dual number, as bits.
+    fn parts(d: Dual<f64>) -> (u64, u64) {
+        (d.re.to_bits(), d.eps.to_bits())
+    }
+
+    /// A dual number's parts as bits, from plain values.
+    fn bits(re: f64, eps: f64) -> (u64, u64) {
+        (re.to_bits(), eps.to_bits())
+    }
+
+    #[test]
+    fn compound_assignment_sum_and_the_real_methods_act_on_both_parts() {
+        let (x, y) = (Dual::new(2.0_f64, 1.0), Dual::new(4.0, 3.0));
+        let mut m = x;
+        m *= y;
+        assert_eq!(parts(m), bits(8.0, 1.0 * 4.0 + 2.0 * 3.0));
+        let mut d = y;
+        d /= x;
+        assert_eq!(parts(d), bits(2.0, (3.0 * 2.0 - 4.0 * 1.0) / 4.0));
+        let s: Dual<f64> = [x, y, Dual::new(1.0, -1.0)].into_iter().sum();
+        assert_eq!(parts(s), bits(7.0, 3.0));
+        assert_eq!(x.to_f64().to_bits(), 2.0_f64.to_bits());
+        assert_eq!(parts(x.powi(3)), bits(8.0, 12.0));
+        assert_eq!(parts(Dual::new(-2.0_f64, 1.0).abs()), bits(2.0, -1.0));
+        assert_eq!(parts(Dual::new(2.0_f64, 1.0).abs()), bits(2.0, 1.0));
+        // At the kink the derivative taken is the right one (+1).
+        assert_eq!(parts(Dual::new(0.0_f64, 1.0).abs()), bits(0.0, 1.0));
+        assert_eq!(parts(Dual::new(2.5_f64, 1.0).floor()), bits(2.0, 0.0));
+        assert_eq!(parts(Dual::new(2.5_f64, 1.0).ceil()), bits(3.0, 0.0));
+        assert!(x.is_finite() && !x.is_nan());
+        assert!(!Dual::new(1.0, f64::INFINITY).is_finite());
+        assert!(!Dual::new(f64::INFINITY, 1.0).is_finite());
+        assert!(Dual::new(1.0, f64::NAN).is_nan() && Dual::new(f64::NAN, 1.0).is_nan());
+    }
+
+    #[test]
     fn duals_compare_by_their_real_part() {
         // Equality and order follow the value, not its derivative, so that generic code
         // branches on a dual number as it does on the plain one.
