@@ -36,3 +36,15 @@ impl Par {
         matches!(self, Self::Seq)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Par;
+
+    #[test]
+    fn only_the_sequential_variant_is_sequential() {
+        assert!(Par::Seq.is_seq());
+        #[cfg(feature = "rayon")]
+        assert!(!Par::Rayon.is_seq());
+    }
+}

@@ -234,6 +234,35 @@ impl_real_float!(f64, core::f64::consts::PI);
 mod tests {
     use super::Real;
 
+    #[test]
+    fn the_provided_methods_of_real_through_dual_numbers() {
+        // f64 has inherent methods of these names: the trait's defaults are reached through
+        // a type without them.
+        use crate::Dual;
+        let d = |re: f64, eps: f64| Dual::new(re, eps);
+        let p = |x: Dual<f64>| (x.re.to_bits(), x.eps.to_bits());
+        assert_eq!(
+            p(Real::max(d(1.0, 5.0), d(1.0, 7.0))),
+            p(d(1.0, 5.0)),
+            "ties keep the first"
+        );
+        assert_eq!(p(Real::max(d(1.0, 5.0), d(2.0, 7.0))), p(d(2.0, 7.0)));
+        assert_eq!(
+            p(Real::min(d(1.0, 5.0), d(1.0, 7.0))),
+            p(d(1.0, 5.0)),
+            "ties keep the first"
+        );
+        assert_eq!(p(Real::min(d(3.0, 5.0), d(2.0, 7.0))), p(d(2.0, 7.0)));
+        assert_eq!(p(Real::min(d(1.0, 5.0), d(2.0, 7.0))), p(d(1.0, 5.0)));
+        assert_eq!(
+            p(Real::clamp(d(5.0, 1.0), d(0.0, 0.0), d(2.0, 3.0))),
+            p(d(2.0, 3.0))
+        );
+        assert_eq!(p(Real::sq(d(3.0, 1.0))), p(d(9.0, 6.0)));
+        assert_eq!(p(Real::recip(d(2.0, 1.0))), p(d(0.5, -0.25)));
+        assert_eq!(p(<Dual<f64> as Real>::from_usize(7)), p(d(7.0, 0.0)));
+    }
+
     fn poly<T: Real>(x: T) -> T {
         T::from_f64(0.5) * x.sq() + x.sin()
     }

@@ -84,6 +84,27 @@ mod tests {
     use super::SplitMix64;
 
     #[test]
+    fn the_published_splitmix64_sequence_from_seed_zero() {
+        let mut r = SplitMix64::new(0);
+        let got: [u64; 3] = [r.next_u64(), r.next_u64(), r.next_u64()];
+        assert_eq!(
+            got,
+            [
+                0xe220_a839_7b1d_cdaf,
+                0x6e78_9e6a_a1b9_65f4,
+                0x06c4_5d18_8009_454f
+            ]
+        );
+        assert_eq!(r.state(), 3_u64.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let mut again = SplitMix64::new(r.state());
+        assert_eq!(
+            again.next_u64(),
+            r.next_u64(),
+            "the state continues the sequence"
+        );
+    }
+
+    #[test]
     fn moments_are_plausible() {
         let mut r = SplitMix64::new(1);
         let n = 20_000;

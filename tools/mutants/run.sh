@@ -31,7 +31,9 @@ for c in "${crates[@]}"; do
     out="target/mutants/$c"
     mkdir -p "$out"
     # A missed mutant makes cargo-mutants exit 2; the summary below still prints.
-    cargo mutants -p "$c" -o "$out" --timeout 120 "$@" || status=$?
+    # --all-features: the property tests (feature `proptest`) and the interop round trips
+    # are part of what catches a mutant.
+    cargo mutants -p "$c" --all-features -o "$out" --timeout 120 "$@" || status=$?
     d="$out/mutants.out"
     caught=$(count "$d/caught.txt")
     missed=$(count "$d/missed.txt")
