@@ -198,15 +198,22 @@ fn resume_config(
     apply_flags(&mut asked, args, args.preset.is_some());
     stages.push((String::new(), asked.clone()));
     // Each key is credited to the last stage that set it; the flags by name.
+    // The keys each stage changed from the one before it, diffed once.
+    let mut prev = ckpt;
+    let mut set_by: Vec<(&str, Vec<String>)> = Vec::with_capacity(stages.len());
+    for (name, cfg) in &stages {
+        set_by.push((
+            name,
+            changes(prev, cfg).into_iter().map(|c| c.key).collect(),
+        ));
+        prev = cfg;
+    }
     let source = |key: &str| {
-        let mut prev = ckpt;
-        let mut from = "";
-        for (name, cfg) in &stages {
-            if changes(prev, cfg).iter().any(|c| c.key == key) {
-                from = name;
-            }
-            prev = cfg;
-        }
+        let from = set_by
+            .iter()
+            .rev()
+            .find(|(_, keys)| keys.iter().any(|k| k == key))
+            .map_or("", |(name, _)| *name);
         if from.is_empty() {
             flag_of(key).to_string()
         } else {
