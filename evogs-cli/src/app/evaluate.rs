@@ -122,11 +122,7 @@ pub fn evaluate_run(
             ));
         }
         Some(_) => {}
-        None => rep.info(&format!(
-            "note: the checkpoint does not record its training data (written by an earlier \
-             evogs), so {} cannot be compared with it",
-            dir.display()
-        )),
+        None => rep.info(&DataIdentity::unrecorded_note(&dir.display().to_string())),
     }
     let views = ds.split(split);
     if views.is_empty() {

@@ -431,11 +431,7 @@ fn check_resumed_data(
     rep: &mut dyn Reporter,
 ) -> CommandResult<()> {
     let Some(old) = recorded else {
-        rep.info(&format!(
-            "note: the checkpoint does not record its training data (written by an earlier \
-             evogs), so {} cannot be compared with it",
-            now.folder
-        ));
+        rep.info(&DataIdentity::unrecorded_note(&now.folder));
         return Ok(());
     };
     if !old.same_data(now) {

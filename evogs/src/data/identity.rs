@@ -45,6 +45,16 @@ impl DataIdentity {
         self.fingerprint == other.fingerprint && self.train_views == other.train_views
     }
 
+    /// The note for a checkpoint written before the data was recorded: the data in
+    /// `folder` cannot be compared with it.
+    #[must_use]
+    pub fn unrecorded_note(folder: &str) -> String {
+        format!(
+            "note: the checkpoint does not record its training data (written by an earlier \
+             evogs), so {folder} cannot be compared with it"
+        )
+    }
+
     /// One line naming both, for errors: `FOLDER (N training views, fingerprint F)`.
     #[must_use]
     pub fn describe(&self) -> String {
