@@ -105,6 +105,61 @@ mod tests {
     }
 
     #[test]
+    fn uniform_below_and_fill_follow_the_published_bits() {
+        // From seed 0 the first three u64 are those of the test above; the expected values
+        // are ⌊u·n / 2⁶⁴⌋ and lo + (hi − lo)·(u >> 11)/2⁵³, computed outside Rust.
+        let mut r = SplitMix64::new(0);
+        assert_eq!(
+            [r.below(1000), r.below(1000), r.below(1000)],
+            [883, 431, 26]
+        );
+        let mut r = SplitMix64::new(0);
+        assert_eq!([r.below(7), r.below(7), r.below(7)], [6, 3, 0]);
+        let want = [
+            4.649_932_424_640_928,
+            3.294_583_991_145_53,
+            2.079_301_314_777_793_2,
+        ];
+        let mut r = SplitMix64::new(0);
+        for w in want {
+            let got = r.uniform(2.0, 5.0);
+            assert!((got - w).abs() < 1e-15, "uniform {got} vs {w}");
+        }
+        let mut r = SplitMix64::new(0);
+        let mut filled = [0.0; 3];
+        r.fill_uniform(&mut filled, 2.0, 5.0);
+        for (got, w) in filled.into_iter().zip(want) {
+            assert!((got - w).abs() < 1e-15, "fill_uniform {got} vs {w}");
+        }
+        assert_eq!(
+            r.state(),
+            3_u64.wrapping_mul(0x9E37_79B9_7F4A_7C15),
+            "one draw each"
+        );
+    }
+
+    #[test]
+    fn below_reaches_every_value_evenly() {
+        let mut r = SplitMix64::new(5);
+        let mut counts = [0_u32; 10];
+        for _ in 0..10_000 {
+            counts[r.below(10)] += 1;
+        }
+        assert!(
+            counts.iter().all(|&c| (850..1150).contains(&c)),
+            "{counts:?}"
+        );
+        assert!((0..100).all(|_| r.below(1) == 0));
+        let high = (0..1000)
+            .filter(|_| r.below(usize::MAX) > usize::MAX / 2)
+            .count();
+        assert!(
+            (400..600).contains(&high),
+            "{high} of 1000 in the upper half"
+        );
+    }
+
+    #[test]
     fn moments_are_plausible() {
         let mut r = SplitMix64::new(1);
         let n = 20_000;
