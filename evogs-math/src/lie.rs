@@ -1,5 +1,5 @@
 //! The Lie group contract that [`So3`] and [`Se3`] share, so that one suite of axioms
-//! (`tests/lie_axioms.rs`) checks both.
+//! (`tests/suite/lie_axioms.rs`) checks both.
 //!
 //! Conventions, as everywhere in this crate: tangent vectors are the `vee` coordinates of the
 //! Lie algebra, perturbations are on the left (`Exp(δ)·g`), and composition reads right to

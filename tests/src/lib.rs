@@ -2,10 +2,10 @@
 //! fuzz test.
 //!
 //! - [`oracle_files`]: every reference-vector file copied into the repository
-//!   (`tests/data/oracle/*.json`), for `tests/verify_oracle.rs`;
+//!   (`tests/data/oracle/*.json`), for `tests/suite/verify_oracle.rs`;
 //! - [`fuzz`]: one seeded case of each property ([`fuzz::projection_case`],
 //!   [`fuzz::raster_case`], [`fuzz::so3_case`]); each panics with a message when a property
-//!   fails. `tests/seeded_fuzz.rs` runs thousands of seeds on stable Rust; a cargo-fuzz target
+//!   fails. `tests/suite/seeded_fuzz.rs` runs thousands of seeds on stable Rust; a cargo-fuzz target
 //!   can call the same functions with a seed taken from its input.
 
 pub mod fuzz;

@@ -10,7 +10,7 @@
 //!   per row), `‖S − ref‖_F / max(1, ‖ref‖_F) ≤ 1e3·tol` (the row's value is that ratio;
 //!   the largest entrywise `|S − ref|/max(1, |ref|)` is in the note: on orbits such as
 //!   Kepler's, where `S` has entries near 80, the discrete derivative's error on the
-//!   entries near 0 and 1 exceeds 1e3·tol, see `tests/adaptive_oracle.rs`).
+//!   entries near 0 and 1 exceeds 1e3·tol, see `tests/suite/adaptive_oracle.rs`).
 //!
 //! Every row's note gives our field evaluations beside scipy's RK45 at the same tolerance.
 

@@ -90,7 +90,7 @@ impl TrainConfig {
         c.dynamics.method = evogs_ode::Method::Midpoint;
         // `dynamics.waypoints = "off"` (every frame from the start, steps of half the range)
         // learns more of the motion and generalises better between the training times
-        // (toys-mini sparse:4 +0.4/+0.7 dB, the sliding patch of `tests/motion_learning.rs`
+        // (toys-mini sparse:4 +0.4/+0.7 dB, the sliding patch of `tests/suite/motion_learning.rs`
         // +5.1 dB) but fits the training times worse (toys-mini full −2.1 dB) and diverged on
         // toys sparse:4: see docs/results.md.
         c.dynamics.anchors = 5;
@@ -121,7 +121,7 @@ impl TrainConfig {
         // No velocity coherence loss (the released code's λ = 0.01 stays in `paper`): off, the
         // velocity runs on toys-mini scored +0.25 dB (full), +0.06 / +0.03 dB (sparse:4) and
         // +0.49 / −0.01 dB (future:0.75) at the same or lower cost, and the sliding patch of
-        // tests/motion_learning.rs +0.4 dB with 4 % more of its travel carried by the field.
+        // tests/suite/motion_learning.rs +0.4 dB with 4 % more of its travel carried by the field.
         c.loss.lambda_coherence = 0.0;
         c.loss.coherence_samples = 500;
         c

@@ -43,7 +43,7 @@
 //!   whose 4.x needs Rust 1.87) and `serde-ply` are recent.
 //!
 //! No candidate is as fast for this use, so the reader stays hand-written: small, fuzzed
-//! (`fuzz/`, target `ply_parse`) and tested below and in `tests/hostile.rs`.
+//! (`fuzz/`, target `ply_parse`) and tested below and in `evogs-cli/tests/suite/hostile.rs`.
 
 use std::fmt::Write as _;
 use std::path::Path;

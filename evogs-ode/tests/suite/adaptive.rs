@@ -1,0 +1,773 @@
+//! Adaptive integration ([`evogs_ode::adaptive`]): orders of both pairs (work–precision
+//! slopes of the adaptive solves and fixed-step orders of the propagated and embedded
+//! solutions), dense-output accuracy off the grid, rejections on a stiff-ish problem, the
+//! statistics, SO(3) blocks, failures as errors, and the exact discrete adjoint against
+//! central differences of the replayed solve (steps held fixed), a dual-number JVP (the
+//! dot-product test) and across checkpointing policies (bitwise).
+
+use crate::common;
+
+use common::{Counting, CoupledField, Loss, N_THETA, dual_tangent, random_state, retract};
+use evogs_math::Dual;
+use evogs_math::diff::{GradCheck, central_gradient, vjp_dot_test};
+use evogs_ode::adaptive::{
+    AdaptiveError, AdaptiveOptions, AdaptiveSolution, AdaptiveSolver, Pair, StepSequence,
+};
+use evogs_ode::order::{convergence_study, estimate_order};
+use evogs_ode::problems::{
+    ConstantRate, CosGrowth, DissipativePair, ExactProblem, Logistic, Lorenz, ProblemK,
+    SymmetricTop, VanDerPol, state_distance,
+};
+use evogs_ode::{Checkpointing, StateLayout, VectorField};
+
+fn opts(tol: f64) -> AdaptiveOptions<f64> {
+    AdaptiveOptions::with_tolerances(tol, tol)
+}
+
+fn solve<F: VectorField<f64> + ?Sized>(
+    f: &mut F,
+    pair: Pair,
+    o: AdaptiveOptions<f64>,
+    t0: f64,
+    t1: f64,
+    y0: &[f64],
+    times: &[f64],
+) -> AdaptiveSolution<f64> {
+    AdaptiveSolver::new(pair, f.layout(), o)
+        .solve(f, t0, t1, y0, times)
+        .unwrap_or_else(|e| panic!("{pair}: {e}"))
+}
+
+/// Least-squares slope of `log y` against `log x`.
+fn slope(x: &[f64], y: &[f64]) -> f64 {
+    let lx: Vec<f64> = x.iter().map(|v| v.ln()).collect();
+    let ly: Vec<f64> = y.iter().map(|v| v.ln()).collect();
+    let (mx, my) = (
+        lx.iter().sum::<f64>() / lx.len() as f64,
+        ly.iter().sum::<f64>() / ly.len() as f64,
+    );
+    let sxy: f64 = lx.iter().zip(&ly).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let sxx: f64 = lx.iter().map(|a| (a - mx) * (a - mx)).sum();
+    sxy / sxx
+}
+
+/// Worst error of the outputs against the exact solution.
+fn output_error<P: ExactProblem<f64>>(p: &P, sol: &AdaptiveSolution<f64>) -> f64 {
+    let layout = p.layout();
+    let mut exact = vec![0.0; layout.ambient_len()];
+    (0..sol.times().len())
+        .map(|j| {
+            p.exact(sol.times()[j], &mut exact);
+            state_distance(&layout, sol.output(j), &exact)
+        })
+        .fold(0.0, f64::max)
+}
+
+fn times_in(t0: f64, t1: f64, m: usize) -> Vec<f64> {
+    // Irregular, off any step grid; t1 last.
+    let mut v: Vec<f64> = (1..m)
+        .map(|j| t0 + (t1 - t0) * ((j as f64 + 0.31) / m as f64).powf(1.1))
+        .collect();
+    v.push(t1);
+    v
+}
+
+#[test]
+fn work_precision_slopes_match_the_orders() {
+    // Error ∝ tol (tolerance proportionality) and error ∝ nfev^(−p).
+    let cases: [(&str, Maker); 3] = [
+        (
+            "logistic",
+            Box::new(|| Box::new(Logistic::<f64>::default())),
+        ),
+        (
+            "cos-growth",
+            Box::new(|| Box::new(CosGrowth::<f64>::default())),
+        ),
+        (
+            "symmetric top (SO(3))",
+            Box::new(|| Box::new(SymmetricTop::<f64>::default())),
+        ),
+    ];
+    for (name, make) in &cases {
+        for pair in Pair::ALL {
+            let tols: Vec<f64> = match pair {
+                Pair::Dopri5 => (0..7).map(|k| 1e-5 * 10f64.powi(-k)).collect(),
+                Pair::Bs32 => (0..6).map(|k| 1e-4 * 10f64.powi(-k)).collect(),
+            };
+            let (mut errs, mut nfev) = (Vec::new(), Vec::new());
+            for &tol in &tols {
+                let mut p = make();
+                let (t0, t1) = (p.as_exact().t0(), p.as_exact().t_end());
+                let mut y0 = vec![0.0; p.as_exact().layout().ambient_len()];
+                p.as_exact().initial_state(&mut y0);
+                let times = times_in(t0, t1, 12);
+                let sol = solve(p.as_exact(), pair, opts(tol), t0, t1, &y0, &times);
+                errs.push(output_error_dyn(p.as_exact(), &sol));
+                nfev.push(sol.stats().field_evals as f64);
+            }
+            let s_tol = slope(&tols, &errs);
+            let s_work = slope(&nfev, &errs);
+            println!(
+                "{name:<22} {pair}: error ∝ tol^{s_tol:.2}, error ∝ nfev^{s_work:.2} (order {})",
+                pair.order()
+            );
+            assert!(
+                (0.8..=1.2).contains(&s_tol),
+                "{name} {pair}: tol slope {s_tol}"
+            );
+            let p = pair.order() as f64;
+            assert!(
+                (-s_work - p).abs() < 0.2 * p,
+                "{name} {pair}: work slope {s_work}, order {p}"
+            );
+        }
+    }
+}
+
+/// Builds a problem of the work–precision test.
+type Maker = Box<dyn Fn() -> Box<dyn ExactHolder>>;
+
+/// Object-safe access to an exact problem (the test builds them at run time).
+trait ExactHolder {
+    fn as_exact(&mut self) -> &mut dyn ExactProblem<f64, Record = ()>;
+}
+impl<P: ExactProblem<f64, Record = ()> + 'static> ExactHolder for P {
+    fn as_exact(&mut self) -> &mut dyn ExactProblem<f64, Record = ()> {
+        self
+    }
+}
+
+fn output_error_dyn(
+    p: &mut dyn ExactProblem<f64, Record = ()>,
+    sol: &AdaptiveSolution<f64>,
+) -> f64 {
+    let layout = p.layout();
+    let mut exact = vec![0.0; layout.ambient_len()];
+    (0..sol.times().len())
+        .map(|j| {
+            p.exact(sol.times()[j], &mut exact);
+            p.error(sol.output(j), &exact)
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn fixed_step_orders_of_the_propagated_and_embedded_solutions() {
+    // Both solutions of both pairs on a non-autonomous scalar problem and on SO(3) (RKMK with
+    // the pair's tableau): orders 5 and 4, 3 and 2.
+    for pair in Pair::ALL {
+        for (tableau, want) in [
+            (pair.tableau(), pair.order()),
+            (pair.embedded_tableau(), pair.embedded_order()),
+        ] {
+            let ns: Vec<usize> = (2..10).map(|k| 1 << k).collect();
+            for (problem, study) in [
+                (
+                    "cos-growth",
+                    convergence_study(&mut CosGrowth::default(), tableau, &ns),
+                ),
+                ("problem K", convergence_study(&mut ProblemK, tableau, &ns)),
+            ] {
+                let est = study
+                    .estimate
+                    .clone()
+                    .unwrap_or_else(|| panic!("{}: no clean range: {:?}", tableau.name(), study));
+                // The successive order of the finest pair of steps above the rounding floor
+                // (the fitted slope also sees the slow pre-asymptotics of these problems).
+                let k = (0..est.successive.len())
+                    .rev()
+                    .find(|&k| study.errors[k + 1] > 5e-14)
+                    .expect("errors above the floor");
+                let finest = est.successive[k];
+                println!(
+                    "{} on {problem}: fitted order {:.2}, finest successive order {finest:.2}",
+                    tableau.name(),
+                    est.order
+                );
+                assert!(
+                    (finest - want as f64).abs() < 0.15 && (est.order - want as f64).abs() < 0.4,
+                    "{} on {problem}: {:.3} / {finest:.3}, want {want}",
+                    tableau.name(),
+                    est.order
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn dense_output_has_the_extensions_order_off_the_grid() {
+    // Fixed uniform steps, outputs at θ = 0.37 in every step: the error of the dense output
+    // (the extension's local error O(h^{q+1}) plus the global error) converges at ≥ the
+    // extension's order (4 for Dopri5, 3 for Bs32).
+    let mut p = CosGrowth::<f64>::default();
+    let (t0, t1) = (p.t0(), p.t_end());
+    let mut y0 = [0.0];
+    p.initial_state(&mut y0);
+    for pair in Pair::ALL {
+        let mut solver = AdaptiveSolver::new(pair, p.layout(), opts(1e-6));
+        let (mut hs, mut errs) = (Vec::new(), Vec::new());
+        for k in 2..10 {
+            let n = 1usize << k;
+            let h = (t1 - t0) / n as f64;
+            let steps = StepSequence::from_sizes(t0, &vec![h; n]);
+            let times: Vec<f64> = (0..n).map(|i| t0 + (i as f64 + 0.37) * h).collect();
+            let mut out = vec![0.0; n];
+            solver
+                .replay(&mut p, &steps, &y0, &times, &mut out)
+                .unwrap();
+            let mut exact = [0.0];
+            let e = times
+                .iter()
+                .zip(&out)
+                .map(|(&t, &y)| {
+                    p.exact(t, &mut exact);
+                    (y - exact[0]).abs()
+                })
+                .fold(0.0, f64::max);
+            hs.push(h);
+            errs.push(e);
+        }
+        let est = estimate_order(&hs, &errs).expect("clean range");
+        println!("{pair} dense output at θ = 0.37: order {:.2}", est.order);
+        assert!(
+            est.order > pair.dense_order() as f64 - 0.2,
+            "{pair}: dense order {:.2}",
+            est.order
+        );
+    }
+    // Adaptive: outputs at 40 irregular times within a small multiple of the tolerance.
+    for pair in Pair::ALL {
+        for tol in [1e-5, 1e-8] {
+            let times = times_in(t0, t1, 40);
+            let sol = solve(&mut p, pair, opts(tol), t0, t1, &y0, &times);
+            let e = output_error(&p, &sol);
+            assert!(e < 30.0 * tol, "{pair} tol {tol:e}: dense error {e:e}");
+        }
+    }
+}
+
+#[test]
+fn steps_do_not_depend_on_output_times_and_grid_outputs_are_the_states() {
+    let mut f = Lorenz::<f64>::default();
+    let y0 = [1.0, 1.0, 1.0];
+    for pair in Pair::ALL {
+        let bare = solve(&mut f, pair, opts(1e-7), 0.5, 2.0, &y0, &[]);
+        let many = solve(
+            &mut f,
+            pair,
+            opts(1e-7),
+            0.5,
+            2.0,
+            &y0,
+            &times_in(0.5, 2.0, 50),
+        );
+        assert_eq!(bare.steps(), many.steps(), "{pair}: same steps");
+        assert_eq!(bare.final_state(), many.final_state(), "{pair}: same end");
+        // Outputs requested at every step end are bitwise the step values.
+        let steps = bare.steps();
+        let ends: Vec<f64> = (0..steps.len())
+            .map(|n| {
+                let (t, h) = steps.step(n);
+                if n + 1 == steps.len() { 2.0 } else { t + h }
+            })
+            .collect();
+        let at_ends = solve(&mut f, pair, opts(1e-7), 0.5, 2.0, &y0, &ends);
+        let mut solver = AdaptiveSolver::new(pair, f.layout(), opts(1e-7));
+        let mut y = y0.to_vec();
+        for n in 0..steps.len() {
+            // The state after step n, by replaying n + 1 steps.
+            let partial = StepSequence::from_sizes(0.5, &steps.sizes()[..=n]);
+            let mut out = vec![0.0; 3];
+            let end = if n + 1 == steps.len() { 2.0 } else { ends[n] };
+            solver
+                .replay(&mut f, &partial, &y0, &[end], &mut out)
+                .unwrap();
+            y.copy_from_slice(&out);
+            assert_eq!(
+                at_ends.output(n),
+                &y[..],
+                "{pair}: output at the end of step {n}"
+            );
+        }
+        assert_eq!(
+            at_ends.output(steps.len() - 1),
+            bare.final_state(),
+            "{pair}: at t1"
+        );
+    }
+}
+
+#[test]
+fn replay_reproduces_the_solve_bitwise() {
+    let proto = CoupledField::<f64>::random(3, 11);
+    let layout = proto.layout();
+    let y0 = random_state(&layout, 2);
+    for pair in Pair::ALL {
+        let mut f = proto.clone();
+        let times = times_in(0.2, 1.9, 9);
+        let sol = solve(&mut f, pair, opts(1e-6), 0.2, 1.9, &y0, &times);
+        let mut out = vec![0.0; sol.outputs().len()];
+        AdaptiveSolver::new(pair, layout, opts(1e-6))
+            .replay(&mut f, sol.steps(), &y0, &times, &mut out)
+            .unwrap();
+        assert_eq!(out, sol.outputs(), "{pair}: replay == solve");
+        // Unit quaternions stay unit.
+        for j in 0..times.len() {
+            let o = sol.output(j);
+            for p in 0..3 {
+                let q = &o[9 * p + 3..9 * p + 7];
+                let nq: f64 = q.iter().map(|v| v * v).sum();
+                assert!((nq - 1.0).abs() < 1e-14, "{pair}: |q|² = {nq}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_stiff_problem_makes_the_controller_reject_steps() {
+    // Van der Pol with μ = 30 and the −50 decay of DissipativePair: an explicit pair runs at
+    // its stability limit, and the controller keeps probing it (rejections).
+    for pair in Pair::ALL {
+        let mut vdp = VanDerPol { mu: 30.0 };
+        let sol = solve(&mut vdp, pair, opts(1e-6), 0.0, 30.0, &[2.0, 0.0], &[30.0]);
+        let st = sol.stats();
+        println!("{pair} van der Pol μ = 30: {st:?}");
+        assert!(st.rejected >= 10, "{pair}: only {} rejections", st.rejected);
+        let mut dp = DissipativePair::default();
+        let y0 = DissipativePair::initial_state();
+        let sol = solve(&mut dp, pair, opts(1e-6), 0.0, 3.0, &y0, &[3.0]);
+        assert!(sol.stats().rejected > 0, "{pair}: dissipative pair");
+        // Step sizes stay near the stability boundary |hλ| ≲ 3.3 of the pairs.
+        let hmax = sol
+            .steps()
+            .sizes()
+            .iter()
+            .skip(5)
+            .fold(0.0f64, |a, h| a.max(h.abs()));
+        assert!(hmax * 50.0 < 4.0, "{pair}: h = {hmax} beyond stability");
+    }
+}
+
+#[test]
+fn statistics_count_every_evaluation() {
+    for pair in Pair::ALL {
+        for (h_init, start) in [(None, 2), (Some(0.01), 1)] {
+            let mut f = Counting {
+                inner: VanDerPol { mu: 3.0 },
+                evals: 0,
+            };
+            let o = AdaptiveOptions {
+                h_init,
+                ..opts(1e-6)
+            };
+            let sol = solve(
+                &mut f,
+                pair,
+                o,
+                0.0,
+                6.0,
+                &[2.0, 0.0],
+                &times_in(0.0, 6.0, 7),
+            );
+            let st = sol.stats();
+            assert_eq!(st.field_evals, f.evals, "{pair}: counted evaluations");
+            assert_eq!(
+                st.field_evals,
+                start + (pair.stages() - 1) * (st.accepted + st.rejected),
+                "{pair}: FSAL accounting"
+            );
+            assert_eq!(st.accepted, sol.steps().len(), "{pair}: accepted = steps");
+            assert!(st.rejected > 0, "{pair}: some rejections at μ = 3");
+            let span: f64 = sol.steps().sizes().iter().sum();
+            assert!((span - 6.0).abs() < 1e-12, "{pair}: steps cover the span");
+        }
+    }
+}
+
+#[test]
+fn rotations_follow_exact_solutions() {
+    // The symmetric top (SO(3) × ℝ³, closed form): within a small multiple of tol.
+    let top = SymmetricTop::<f64>::default();
+    let layout = top.layout();
+    let mut y0 = vec![0.0; layout.ambient_len()];
+    top.initial_state(&mut y0);
+    for pair in Pair::ALL {
+        for tol in [1e-5, 1e-8, 1e-10] {
+            let mut f = top;
+            let times = times_in(0.0, top.t_end(), 25);
+            let sol = solve(&mut f, pair, opts(tol), 0.0, top.t_end(), &y0, &times);
+            let e = output_error(&top, &sol);
+            println!(
+                "{pair} symmetric top tol {tol:e}: error {e:.2e}, {:?}",
+                sol.stats()
+            );
+            assert!(e < 50.0 * tol, "{pair} tol {tol:e}: {e:e}");
+        }
+        // A constant rate is integrated exactly by RKMK: the error estimate vanishes and
+        // one step does (after the initial-step probe).
+        let mut cr = ConstantRate::<f64>::default();
+        let mut q0 = [0.0; 4];
+        cr.initial_state(&mut q0);
+        let times = times_in(0.0, 3.0, 6);
+        let sol = solve(&mut cr, pair, opts(1e-10), 0.0, 3.0, &q0, &times);
+        assert!(output_error(&cr, &sol) < 1e-14, "{pair}: constant rate");
+        // Steps grow by the largest factor from the probe's first step on.
+        assert!(
+            sol.steps().len() <= 6,
+            "{pair}: {} steps",
+            sol.steps().len()
+        );
+    }
+}
+
+#[test]
+fn backward_in_time_from_a_nonzero_start() {
+    let mut p = CosGrowth::<f64>::default();
+    let (ta, tb) = (3.7, 0.4);
+    let mut ya = [0.0];
+    p.exact(ta, &mut ya);
+    let times = times_in(ta, tb, 10);
+    for pair in Pair::ALL {
+        let sol = solve(&mut p, pair, opts(1e-9), ta, tb, &ya, &times);
+        assert!(
+            sol.steps().sizes().iter().all(|&h| h < 0.0),
+            "{pair}: negative steps"
+        );
+        let e = output_error(&p, &sol);
+        assert!(e < 1e-7, "{pair}: backward error {e:e}");
+    }
+}
+
+#[test]
+fn failures_are_errors_not_panics() {
+    /// y' = y²: blows up at t = 1 from y(0) = 1.
+    #[derive(Clone, Copy, Debug)]
+    struct BlowUp;
+    impl VectorField<f64> for BlowUp {
+        type Record = ();
+        fn dim(&self) -> usize {
+            1
+        }
+        fn n_params(&self) -> usize {
+            0
+        }
+        fn eval(&mut self, _t: f64, y: &[f64], d: &mut [f64]) {
+            d[0] = y[0] * y[0];
+        }
+        fn vjp(&mut self, _t: f64, y: &[f64], w: &[f64], d_y: &mut [f64], _: &mut [f64]) {
+            d_y[0] += 2.0 * y[0] * w[0];
+        }
+    }
+    let l = StateLayout::euclidean(1);
+    let mut s = AdaptiveSolver::new(Pair::Dopri5, l, opts(1e-8));
+    let e = s.solve(&mut BlowUp, 0.0, 2.0, &[1.0], &[]).unwrap_err();
+    assert!(
+        matches!(e, AdaptiveError::StepSizeTooSmall { t, .. } | AdaptiveError::TooManySteps { t, .. } if (t - 1.0).abs() < 1e-3),
+        "{e}"
+    );
+    s.set_options(opts(1e-8).max_steps(5));
+    let e = s.solve(&mut BlowUp, 0.0, 0.9, &[1.0], &[]).unwrap_err();
+    assert!(
+        matches!(e, AdaptiveError::TooManySteps { max_steps: 5, .. }),
+        "{e}"
+    );
+    s.set_options(AdaptiveOptions {
+        h_min: 1e-2,
+        ..opts(1e-12)
+    });
+    let e = s.solve(&mut BlowUp, 0.0, 0.99, &[1.0], &[]).unwrap_err();
+    assert!(matches!(e, AdaptiveError::StepSizeTooSmall { .. }), "{e}");
+    let mut f = Logistic::<f64>::default();
+    let mut s = AdaptiveSolver::new(Pair::Bs32, l, opts(1e-6));
+    /// Options, y0, output times and the expected error.
+    type Case<'a> = (
+        AdaptiveOptions<f64>,
+        &'a [f64],
+        &'a [f64],
+        fn(&AdaptiveError) -> bool,
+    );
+    let cases: [Case<'_>; 7] = [
+        (opts(-1.0), &[0.5], &[], |e| {
+            matches!(e, AdaptiveError::InvalidTolerance)
+        }),
+        (opts(0.0), &[0.5], &[], |e| {
+            matches!(e, AdaptiveError::InvalidTolerance)
+        }),
+        (opts(f64::NAN), &[0.5], &[], |e| {
+            matches!(e, AdaptiveError::InvalidTolerance)
+        }),
+        (opts(1e-6), &[0.5, 1.0], &[], |e| {
+            matches!(e, AdaptiveError::LengthMismatch { .. })
+        }),
+        (opts(1e-6), &[f64::NAN], &[], |e| {
+            matches!(e, AdaptiveError::NonFinite(_))
+        }),
+        (opts(1e-6), &[0.5], &[0.5, 0.2], |e| {
+            matches!(e, AdaptiveError::OutputTime { index: 1 })
+        }),
+        (opts(1e-6), &[0.5], &[3.0], |e| {
+            matches!(e, AdaptiveError::OutputTime { index: 0 })
+        }),
+    ];
+    for (o, y0, times, ok) in cases {
+        s.set_options(o);
+        let e = s.solve(&mut f, 0.0, 2.0, y0, times).unwrap_err();
+        assert!(ok(&e), "unexpected {e:?}");
+        assert!(!e.to_string().is_empty(), "message");
+    }
+    s.set_options(AdaptiveOptions {
+        checkpointing: Checkpointing::Every(0),
+        ..opts(1e-6)
+    });
+    assert!(matches!(
+        s.solve(&mut f, 0.0, 2.0, &[0.5], &[]),
+        Err(AdaptiveError::InvalidOption(_))
+    ));
+    // A field of another layout; an adjoint with wrong lengths or a foreign solution.
+    let mut top = SymmetricTop::<f64>::default();
+    assert!(matches!(
+        s.solve(&mut top, 0.0, 1.0, &[0.5], &[]),
+        Err(AdaptiveError::LayoutMismatch)
+    ));
+    s.set_options(opts(1e-6));
+    let sol = s.solve(&mut f, 0.0, 2.0, &[0.5], &[1.0, 2.0]).unwrap();
+    let (mut dy, mut dp, mut dt) = ([0.0], vec![0.0; f.n_params()], [0.0; 2]);
+    let e = s
+        .adjoint(&mut f, &sol, &[1.0], &mut dy, &mut dp, &mut dt)
+        .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            AdaptiveError::LengthMismatch {
+                what: "d_outputs",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    let mut other = AdaptiveSolver::new(Pair::Dopri5, l, opts(1e-6));
+    let e = other
+        .adjoint(&mut f, &sol, &[1.0, 1.0], &mut dy, &mut dp, &mut dt)
+        .unwrap_err();
+    assert_eq!(e, AdaptiveError::ForeignSolution, "other pair");
+    // t1 = t0: no step, every output is y0, and the adjoint sums the cotangents.
+    let sol = s.solve(&mut f, 1.0, 1.0, &[0.5], &[1.0, 1.0]).unwrap();
+    assert_eq!(sol.outputs(), &[0.5, 0.5], "no step");
+    s.adjoint(&mut f, &sol, &[1.0, 2.0], &mut dy, &mut dp, &mut dt)
+        .unwrap();
+    assert!((dy[0] - 3.0).abs() < 1e-300, "identity map: {dy:?}");
+}
+
+/// `[∂L/∂y0 (tangent), ∂L/∂θ, ∂L/∂τ]` by the adaptive adjoint, with `L = Σⱼ loss(y(τⱼ))`.
+fn adaptive_gradient<F: VectorField<f64>>(
+    solver: &mut AdaptiveSolver<f64>,
+    f: &mut F,
+    sol: &AdaptiveSolution<f64>,
+    loss: &Loss,
+) -> Vec<f64> {
+    let m = sol.times().len();
+    let n = f.dim();
+    let mut d_out = Vec::with_capacity(m * n);
+    for j in 0..m {
+        d_out.extend(loss.gradient(sol.output(j)));
+    }
+    let mut d_y0 = vec![0.0; n];
+    let mut d_th = vec![0.0; f.n_params()];
+    let mut d_t = vec![0.0; m];
+    solver
+        .adjoint(f, sol, &d_out, &mut d_y0, &mut d_th, &mut d_t)
+        .expect("adjoint");
+    d_y0.extend(d_th);
+    d_y0.extend(d_t);
+    d_y0
+}
+
+/// Central differences of the replayed solve in `[δy0, θ, τ]`.
+fn replay_gradient<F: VectorField<f64>>(
+    pair: Pair,
+    make: impl Fn(&[f64]) -> F,
+    theta: &[f64],
+    sol: &AdaptiveSolution<f64>,
+    y0: &[f64],
+    loss: &Loss,
+) -> Vec<f64> {
+    let f0 = make(theta);
+    let layout = f0.layout();
+    let (n, np, m) = (layout.tangent_len(), theta.len(), sol.times().len());
+    let mut x = vec![0.0; n];
+    x.extend_from_slice(theta);
+    x.extend_from_slice(sol.times());
+    let mut num = vec![0.0; x.len()];
+    let mut solver = AdaptiveSolver::new(pair, layout, opts(1e-6));
+    let len = layout.ambient_len();
+    central_gradient(
+        |v: &[f64]| {
+            let mut f = make(&v[n..n + np]);
+            let mut out = vec![0.0; m * len];
+            solver
+                .replay(
+                    &mut f,
+                    sol.steps(),
+                    &retract(&layout, y0, &v[..n]),
+                    &v[n + np..],
+                    &mut out,
+                )
+                .expect("replay");
+            out.chunks_exact(len).map(|o| loss.value(o)).sum()
+        },
+        &mut x,
+        &mut num,
+    );
+    num
+}
+
+#[test]
+fn adjoint_matches_central_differences_of_the_replayed_solve() {
+    // Euclidean (Lorenz, θ = (σ, ρ, β), from t0 = 0.3) and SO(3) blocks (the coupled particle
+    // field, backward in time too); output times inside steps and at t1.
+    for pair in Pair::ALL {
+        let th = [10.0, 28.0, 8.0 / 3.0];
+        let make = |t: &[f64]| Lorenz {
+            sigma: t[0],
+            rho: t[1],
+            beta: t[2],
+        };
+        let mut f = make(&th);
+        let y0 = [1.0, 1.2, 0.9];
+        let loss = Loss::new(f.layout(), 9);
+        let times = times_in(0.3, 1.1, 6);
+        let mut solver = AdaptiveSolver::new(pair, f.layout(), opts(1e-6));
+        let sol = solver.solve(&mut f, 0.3, 1.1, &y0, &times).unwrap();
+        let a = adaptive_gradient(&mut solver, &mut f, &sol, &loss);
+        let num = replay_gradient(pair, make, &th, &sol, &y0, &loss);
+        GradCheck::new(1e-7, 1e-6)
+            .check(&a, &num)
+            .assert_passed(&format!("{pair} Lorenz"));
+
+        let proto = CoupledField::<f64>::random(2, 4);
+        let layout = proto.layout();
+        let y0 = random_state(&layout, 8);
+        let loss = Loss::new(layout, 6);
+        for (t0, t1) in [(0.1, 1.6), (1.2, -0.4)] {
+            let mut f = proto.clone();
+            let times = times_in(t0, t1, 5);
+            let mut solver = AdaptiveSolver::new(pair, layout, opts(1e-5));
+            let sol = solver.solve(&mut f, t0, t1, &y0, &times).unwrap();
+            assert!(sol.steps().len() >= 4, "{pair}: several steps");
+            let a = adaptive_gradient(&mut solver, &mut f, &sol, &loss);
+            let make = |t: &[f64]| CoupledField {
+                theta: t.to_vec(),
+                count: 2,
+            };
+            let num = replay_gradient(pair, make, &proto.theta, &sol, &y0, &loss);
+            GradCheck::new(1e-8, 1e-6)
+                .check(&a, &num)
+                .assert_passed(&format!("{pair} SO(3) particles [{t0}, {t1}]"));
+        }
+    }
+}
+
+#[test]
+fn adjoint_passes_the_dot_product_test_against_dual_numbers() {
+    // JVP: the replay in dual numbers (exact); VJP: the adjoint. Inputs [δy0, θ, τ], outputs
+    // every output state (tangent).
+    let proto = CoupledField::<f64>::random(2, 21);
+    let layout = proto.layout();
+    let y0 = random_state(&layout, 13);
+    let n = layout.tangent_len();
+    for pair in Pair::ALL {
+        let mut f = proto.clone();
+        let times = times_in(0.0, 1.4, 4);
+        let m = times.len();
+        let mut solver = AdaptiveSolver::new(pair, layout, opts(1e-6));
+        let sol = solver.solve(&mut f, 0.0, 1.4, &y0, &times).unwrap();
+        let r = vjp_dot_test(
+            |v: &[f64], out: &mut [f64]| {
+                let theta = proto
+                    .theta
+                    .iter()
+                    .zip(&v[n..n + N_THETA])
+                    .map(|(&a, &b)| Dual::new(a, b))
+                    .collect();
+                let mut fd = CoupledField { theta, count: 2 };
+                let y0d: Vec<Dual<f64>> = y0.iter().map(|&a| Dual::constant(a)).collect();
+                let vd: Vec<Dual<f64>> = v[..n].iter().map(|&b| Dual::new(0.0, b)).collect();
+                let y0d = retract(&layout, &y0d, &vd);
+                let td: Vec<Dual<f64>> = times
+                    .iter()
+                    .zip(&v[n + N_THETA..])
+                    .map(|(&a, &b)| Dual::new(a, b))
+                    .collect();
+                let sizes: Vec<Dual<f64>> = sol
+                    .steps()
+                    .sizes()
+                    .iter()
+                    .map(|&h| Dual::constant(h))
+                    .collect();
+                let steps = StepSequence::from_sizes(Dual::constant(0.0), &sizes);
+                let len = layout.ambient_len();
+                let mut outd = vec![Dual::constant(0.0); m * len];
+                AdaptiveSolver::new(pair, layout, AdaptiveOptions::default())
+                    .replay(&mut fd, &steps, &y0d, &td, &mut outd)
+                    .expect("dual replay");
+                for j in 0..m {
+                    dual_tangent(
+                        &layout,
+                        &outd[j * len..(j + 1) * len],
+                        &mut out[j * n..(j + 1) * n],
+                    );
+                }
+            },
+            |w: &[f64], out: &mut [f64]| {
+                let mut f = proto.clone();
+                let (d_y0, rest) = out.split_at_mut(n);
+                let (d_th, d_t) = rest.split_at_mut(N_THETA);
+                solver
+                    .adjoint(&mut f, &sol, w, d_y0, d_th, d_t)
+                    .expect("adjoint");
+            },
+            n + N_THETA + m,
+            m * n,
+            5,
+        );
+        println!("{pair}: dot-product residual {r:.1e}");
+        assert!(r < 1e-13, "{pair}: dot-product residual {r:e}");
+    }
+}
+
+#[test]
+fn checkpointing_policies_give_bitwise_identical_gradients() {
+    let proto = CoupledField::<f64>::random(2, 17);
+    let layout = proto.layout();
+    let y0 = random_state(&layout, 19);
+    let loss = Loss::new(layout, 23);
+    for pair in Pair::ALL {
+        let times = times_in(0.0, 2.5, 7);
+        let mut reference: Option<Vec<f64>> = None;
+        for policy in [
+            Checkpointing::StoreAll,
+            Checkpointing::Every(1),
+            Checkpointing::Every(3),
+            Checkpointing::Every(7),
+            Checkpointing::Every(1000),
+        ] {
+            let mut f = proto.clone();
+            let mut solver = AdaptiveSolver::new(pair, layout, opts(1e-7).checkpointing(policy));
+            let sol = solver.solve(&mut f, 0.0, 2.5, &y0, &times).unwrap();
+            let g = adaptive_gradient(&mut solver, &mut f, &sol, &loss);
+            match &reference {
+                None => reference = Some(g),
+                Some(r) => assert!(r == &g, "{pair} {policy:?}: not bitwise identical"),
+            }
+            let stored = sol.stored_states();
+            let n = sol.steps().len();
+            assert_eq!(
+                stored,
+                n.div_ceil(policy.interval()) + 1,
+                "{pair} {policy:?}: stored states"
+            );
+        }
+    }
+}

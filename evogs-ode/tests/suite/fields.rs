@@ -1,0 +1,331 @@
+//! The example fields and the reference problems: VJPs against central differences and
+//! dual numbers, and every closed-form solution against its own ODE.
+
+use crate::common;
+
+use common::{CoupledSe3Field, random_state, retract};
+use evogs_math::diff::{GradCheck, central_gradient, dual_jvp, vjp_dot_test};
+use evogs_math::rng::SplitMix64;
+use evogs_math::so3::log_quat;
+use evogs_math::{Dual, Quat, Se3, Vec3, Vec6};
+use evogs_ode::fields::{LinearField, Mlp};
+use evogs_ode::problems::{
+    AsymmetricTop, ConstantRate, ConstantTwist, CosGrowth, DissipativePair, ExactProblem,
+    HarmonicOscillator, Logistic, ProblemK, PropelledTop, RigidBody, RotatingDecay, ScrewPair,
+    SymmetricTop,
+};
+use evogs_ode::{Block, StateLayout, VectorField};
+
+/// VJP of the field built from θ vs central differences of `w·f(t, y ⊕ δ; θ)` and vs the
+/// dual-number JVP of the same generic field (dot-product test).
+fn check<FF, FD>(
+    what: &str,
+    make: impl Fn(&[f64]) -> FF,
+    make_d: impl Fn(&[Dual<f64>]) -> FD,
+    theta: &[f64],
+    y: &[f64],
+) where
+    FF: VectorField<f64>,
+    FD: VectorField<Dual<f64>>,
+{
+    let mut f = make(theta);
+    let layout = f.layout();
+    let n = layout.tangent_len();
+    let p = theta.len();
+    assert_eq!(f.n_params(), p, "{what}: n_params");
+    let mut rng = SplitMix64::new(5);
+    let w: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+    let t = 0.81;
+    let mut analytic = vec![0.0; n + p];
+    {
+        let (dy, dth) = analytic.split_at_mut(n);
+        f.vjp(t, y, &w, dy, dth);
+    }
+    let mut x = vec![0.0; n];
+    x.extend_from_slice(theta);
+    let mut numeric = vec![0.0; n + p];
+    let mut out = vec![0.0; n];
+    central_gradient(
+        |v: &[f64]| {
+            make(&v[n..]).eval(t, &retract(&layout, y, &v[..n]), &mut out);
+            out.iter().zip(&w).map(|(a, b)| a * b).sum()
+        },
+        &mut x,
+        &mut numeric,
+    );
+    GradCheck::new(1e-9, 1e-7)
+        .check(&analytic, &numeric)
+        .assert_passed(what);
+    let r = vjp_dot_test(
+        |v: &[f64], o: &mut [f64]| {
+            dual_jvp(
+                |xd: &[Dual<f64>], od: &mut [Dual<f64>]| {
+                    let yd: Vec<Dual<f64>> = y.iter().map(|&a| Dual::constant(a)).collect();
+                    make_d(&xd[n..]).eval(Dual::constant(t), &retract(&layout, &yd, &xd[..n]), od);
+                },
+                &x,
+                v,
+                o,
+            );
+        },
+        |ww: &[f64], o: &mut [f64]| {
+            o.fill(0.0);
+            let (dy, dth) = o.split_at_mut(n);
+            make(theta).vjp(t, y, ww, dy, dth);
+        },
+        n + p,
+        n,
+        8,
+    );
+    assert!(r < 1e-13, "{what}: dot-product residual {r:e}");
+}
+
+fn euclid(n: usize, seed: u64) -> Vec<f64> {
+    random_state(&StateLayout::euclidean(n), seed)
+}
+
+#[test]
+fn example_field_vjps() {
+    let mut rng = SplitMix64::new(2);
+    let a: Vec<f64> = (0..9).map(|_| rng.uniform(-1.0, 1.0)).collect();
+    check(
+        "linear field",
+        |th| LinearField::new(3, th.to_vec()),
+        |th| LinearField::new(3, th.to_vec()),
+        &a,
+        &euclid(3, 1),
+    );
+    let theta: Vec<f64> = (0..Mlp::<f64>::param_count(3, 16))
+        .map(|_| rng.uniform(-0.7, 0.7))
+        .collect();
+    check(
+        "mlp",
+        |th| Mlp::new(3, 16, th.to_vec()),
+        |th| Mlp::new(3, 16, th.to_vec()),
+        &theta,
+        &euclid(3, 2),
+    );
+    let proto = CoupledSe3Field::<f64>::random(2, 3);
+    check(
+        "coupled SE(3) test field",
+        |th| CoupledSe3Field {
+            theta: th.to_vec(),
+            count: 2,
+        },
+        |th| CoupledSe3Field {
+            theta: th.to_vec(),
+            count: 2,
+        },
+        &proto.theta,
+        &random_state(&proto.layout(), 4),
+    );
+}
+
+#[test]
+fn problem_field_vjps() {
+    check(
+        "logistic",
+        |th| Logistic {
+            rate: th[0],
+            ..Default::default()
+        },
+        |th| Logistic {
+            rate: th[0],
+            ..Default::default()
+        },
+        &[1.3],
+        &[0.3],
+    );
+    check(
+        "cos growth",
+        |th| CosGrowth {
+            k: th[0],
+            ..Default::default()
+        },
+        |th| CosGrowth {
+            k: th[0],
+            ..Default::default()
+        },
+        &[0.8],
+        &[1.4],
+    );
+    check(
+        "harmonic oscillator",
+        |th| HarmonicOscillator {
+            omega: th[0],
+            ..Default::default()
+        },
+        |th| HarmonicOscillator {
+            omega: th[0],
+            ..Default::default()
+        },
+        &[1.7],
+        &[0.4, -0.9],
+    );
+    check(
+        "rotating decay",
+        |th| RotatingDecay {
+            alpha: th[0],
+            beta: th[1],
+            ..Default::default()
+        },
+        |th| RotatingDecay {
+            alpha: th[0],
+            beta: th[1],
+            ..Default::default()
+        },
+        &[-0.2, 1.5],
+        &[0.4, -0.9],
+    );
+    check(
+        "dissipative pair",
+        |th| DissipativePair {
+            theta: [th[0], th[1], th[2], th[3]],
+        },
+        |th| DissipativePair {
+            theta: [th[0], th[1], th[2], th[3]],
+        },
+        &[1.0, 5.0, 2.0, 0.5],
+        &[0.7, -0.2],
+    );
+    let so3 = StateLayout::particles(&[Block::So3], 1);
+    check(
+        "constant rate",
+        |th| ConstantRate {
+            omega: Vec3::from_slice(th),
+            ..Default::default()
+        },
+        |th| ConstantRate {
+            omega: Vec3::from_slice(th),
+            ..Default::default()
+        },
+        &[0.3, -0.2, 0.9],
+        &random_state(&so3, 3),
+    );
+    let body = StateLayout::particles(&[Block::So3, Block::Euclidean(3)], 1);
+    check(
+        "rigid body",
+        |th| RigidBody {
+            inertia: Vec3::from_slice(th),
+        },
+        |th| RigidBody {
+            inertia: Vec3::from_slice(th),
+        },
+        &[1.0, 2.2, 2.9],
+        &random_state(&body, 4),
+    );
+    let se3 = StateLayout::particles(&[Block::Se3], 1);
+    check(
+        "constant twist",
+        |th| ConstantTwist {
+            xi: Vec6::from_slice(th),
+            ..Default::default()
+        },
+        |th| ConstantTwist {
+            xi: Vec6::from_slice(th),
+            ..Default::default()
+        },
+        &[0.3, -0.2, 0.9, 0.5, 0.1, -0.7],
+        &random_state(&se3, 5),
+    );
+    check(
+        "screw pair",
+        |_| ScrewPair::default(),
+        |_| ScrewPair::default(),
+        &[],
+        &random_state(&se3, 6),
+    );
+    let propelled = StateLayout::particles(&[Block::Se3, Block::Euclidean(3)], 1);
+    check(
+        "propelled top",
+        |th| {
+            let mut p = PropelledTop::default();
+            p.top.body.inertia = Vec3::from_slice(th);
+            p.speed = th[3];
+            p
+        },
+        |th| {
+            let mut p = PropelledTop::default();
+            p.top.body.inertia = Vec3::from_slice(th);
+            p.speed = th[3];
+            p
+        },
+        &[1.0, 2.2, 2.9, 0.6],
+        &random_state(&propelled, 7),
+    );
+}
+
+/// `(exact(t + ε) ⊖ exact(t − ε))/2ε` equals the field at `exact(t)` (tangent
+/// coordinates: `Log(q₊ q₋*)` on SO(3) blocks, the world-frame rate; `Log(T₊ T₋⁻¹)` on
+/// SE(3) blocks, the world-frame twist).
+fn exact_solves_its_ode<P: ExactProblem<f64>>(p: &mut P) {
+    let layout = p.layout();
+    let (na, n) = (layout.ambient_len(), layout.tangent_len());
+    let (mut yp, mut ym, mut y, mut f) =
+        (vec![0.0; na], vec![0.0; na], vec![0.0; na], vec![0.0; n]);
+    let mut y0 = vec![0.0; na];
+    p.initial_state(&mut y0);
+    p.exact(p.t0(), &mut y);
+    assert!(
+        p.error(&y0, &y) < 1e-15,
+        "{}: exact(t0) = initial state",
+        p.name()
+    );
+    let eps = 1e-5;
+    for k in 1..=5 {
+        let t = p.t0() + (p.t_end() - p.t0()) * f64::from(k) / 5.0;
+        p.exact(t + eps, &mut yp);
+        p.exact(t - eps, &mut ym);
+        p.exact(t, &mut y);
+        p.eval(t, &y, &mut f);
+        let (pa, pt) = (layout.particle_ambient_len(), layout.particle_tangent_len());
+        for q in 0..layout.count() {
+            for sp in layout.spans() {
+                let (o, ot) = (q * pa + sp.ambient, q * pt + sp.tangent);
+                let d: Vec<f64> = match sp.block {
+                    Block::Euclidean(m) => (0..m)
+                        .map(|e| (yp[o + e] - ym[o + e]) / (2.0 * eps))
+                        .collect(),
+                    Block::So3 => {
+                        let qd =
+                            Quat::from_slice(&yp[o..]).mul_quat(Quat::from_slice(&ym[o..]).conj());
+                        (log_quat(qd) * (0.5 / eps)).to_array().to_vec()
+                    }
+                    Block::Se3 => {
+                        let d = Se3::from_slice(&yp[o..]) * Se3::from_slice(&ym[o..]).inverse();
+                        (d.log() * (0.5 / eps)).to_array().to_vec()
+                    }
+                };
+                for (e, v) in d.iter().enumerate() {
+                    let want = f[ot + e];
+                    assert!(
+                        (v - want).abs() < 1e-8 * want.abs().max(1.0),
+                        "{} at t={t}: {v} vs {want}",
+                        p.name()
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn closed_forms_solve_their_odes() {
+    exact_solves_its_ode(&mut Logistic::default());
+    exact_solves_its_ode(&mut CosGrowth::default());
+    exact_solves_its_ode(&mut HarmonicOscillator::default());
+    exact_solves_its_ode(&mut RotatingDecay::default());
+    exact_solves_its_ode(&mut ConstantRate::default());
+    exact_solves_its_ode(&mut ProblemK);
+    exact_solves_its_ode(&mut SymmetricTop::default());
+    exact_solves_its_ode(&mut ConstantTwist::default());
+    exact_solves_its_ode(&mut ScrewPair::default());
+    exact_solves_its_ode(&mut PropelledTop::default());
+    let top = AsymmetricTop::<f64>::default();
+    let mut y = [0.0; 7];
+    top.initial_state(&mut y);
+    assert!(
+        (top.body.energy(&y) - 0.5 * (1.0 + 2.0 * 0.01 + 3.0 * 0.25)).abs() < 1e-15,
+        "energy"
+    );
+}
