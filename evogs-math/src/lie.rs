@@ -108,3 +108,20 @@ impl<T: Real> LieGroup<T> for Se3<T> {
         x.norm()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::LieGroup;
+    use crate::{Se3, So3, Vec3, Vec6};
+
+    #[test]
+    fn tangent_norms_are_the_euclidean_norms_of_the_coordinates() {
+        // The axioms suite measures errors with these norms, so a norm stuck at zero would
+        // pass every axiom: pin it to exact Pythagorean quadruples.
+        let so3 = <So3<f64> as LieGroup<f64>>::tangent_norm(Vec3::new(3.0, 4.0, 12.0));
+        assert!((so3 - 13.0).abs() < 1e-12, "{so3}");
+        let x = Vec6::from_array([0.0, 3.0, 0.0, 4.0, 0.0, 12.0]);
+        let se3 = <Se3<f64> as LieGroup<f64>>::tangent_norm(x);
+        assert!((se3 - 13.0).abs() < 1e-12, "{se3}");
+    }
+}
