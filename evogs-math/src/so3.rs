@@ -276,6 +276,35 @@ mod tests {
     use super::*;
 
     #[test]
+    fn log_quat_keeps_a_half_turn_with_w_zero_as_it_is() {
+        // A quaternion with w = 0 is a half turn; it is not folded, so its log points
+        // along +v (folding would give the other, equally valid, −π·x).
+        let phi = log_quat(Quat::new(0.0, 1.0, 0.0, 0.0));
+        assert_eq!(
+            [phi.x, phi.y, phi.z].map(f64::to_bits),
+            [core::f64::consts::PI, 0.0, 0.0].map(f64::to_bits)
+        );
+    }
+
+    #[test]
+    fn log_quat_series_agrees_with_atan2_at_its_threshold() {
+        // Just inside the series' range (|v|²/w² < 1e-3) its truncation is below f64
+        // rounding, so it must give the closed form's value to a few ulps: a wrong
+        // coefficient of the last term (x¹⁰/11, about 1e-15 there) shows.
+        for &angle in &[0.063_2_f64, 0.063_21, 0.063_222] {
+            let half = 0.5 * angle;
+            let (w, n) = (half.cos(), half.sin());
+            assert!(n * n < 1e-3 * w * w, "inside the series' range");
+            let series = log_quat(Quat::new(w, n, 0.0, 0.0)).x;
+            let closed = 2.0 * n.atan2(w);
+            assert!(
+                (series - closed).abs() <= 4.0 * f64::EPSILON * closed,
+                "angle {angle}: series {series:e}, atan2 {closed:e}"
+            );
+        }
+    }
+
+    #[test]
     fn hat_vee_round_trip_and_cross() {
         let a = Vec3::new(0.3, -1.2, 0.7);
         let b = Vec3::new(-0.5, 0.4, 2.0);

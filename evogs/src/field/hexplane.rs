@@ -20,6 +20,7 @@
 //! flat vector (so one Adam optimiser and one checkpoint cover everything); this type only
 //! knows the layout.
 
+use super::gemm::Gemm;
 use super::lanes::{self, LANES};
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
@@ -344,7 +345,7 @@ impl HexPlane {
     /// normalised coordinates: `(∂/∂c_i, ∂/∂c_j)`.
     #[inline]
     #[must_use]
-    pub fn sample_coord_grad<T: Real>(params: &[T], lk: &Lookup<T>, g: &[T]) -> (T, T) {
+    pub fn sample_coord_grad<T: Gemm>(params: &[T], lk: &Lookup<T>, g: &[T]) -> (T, T) {
         if lk.du == T::ZERO && lk.dv == T::ZERO {
             return (T::ZERO, T::ZERO);
         }
@@ -361,29 +362,24 @@ impl HexPlane {
         );
         let (fx, fy) = (lk.fx, lk.fy);
         let (gx, gy) = (T::ONE - fx, T::ONE - fy);
-        // Channel c goes to lane c mod LANES (fixed order, vectorised).
-        let mut acc_u = [T::ZERO; LANES];
-        let mut acc_v = [T::ZERO; LANES];
-        let mut add = |k: usize, g: T, a: T, b: T, c: T, d: T| {
-            acc_u[k] += g * (gy * (b - a) + fy * (d - c));
-            acc_v[k] += g * (gx * (c - a) + fx * (d - b));
-        };
+        // Channel c goes to lane c mod LANES (fixed order, vectorised): the whole blocks in
+        // the scalar type's lane kernel, then the tail channel by channel.
+        let mut acc = ([T::ZERO; LANES], [T::ZERO; LANES]);
         let full = n - n % LANES;
-        for ((((g, a), b), c), d) in g[..full]
-            .chunks_exact(LANES)
-            .zip(p00[..full].chunks_exact(LANES))
-            .zip(p10[..full].chunks_exact(LANES))
-            .zip(p01[..full].chunks_exact(LANES))
-            .zip(p11[..full].chunks_exact(LANES))
-        {
-            for k in 0..LANES {
-                add(k, g[k], a[k], b[k], c[k], d[k]);
-            }
-        }
+        T::coord_grad_lanes(
+            &g[..full],
+            [&p00[..full], &p10[..full], &p01[..full], &p11[..full]],
+            fx,
+            fy,
+            &mut acc,
+        );
+        let (acc_u, acc_v) = &mut acc;
         for c in full..n {
-            add(c - full, g[c], p00[c], p10[c], p01[c], p11[c]);
+            let k = c - full;
+            acc_u[k] += g[c] * (gy * (p10[c] - p00[c]) + fy * (p11[c] - p01[c]));
+            acc_v[k] += g[c] * (gx * (p01[c] - p00[c]) + fx * (p11[c] - p10[c]));
         }
-        let (gu, gv) = (lanes::total(acc_u), lanes::total(acc_v));
+        let (gu, gv) = (lanes::total(*acc_u), lanes::total(*acc_v));
         (gu * lk.du, gv * lk.dv)
     }
 
