@@ -29,8 +29,8 @@ const THIN: usize = 5;
 /// lane-parallel channel kernel of the HexPlane VJP.
 pub trait Gemm: Real {
     /// The coordinate-gradient partial sums of one bilinear sample over whole blocks of
-    /// [`LANES`] channels (`g.len()` a multiple of `LANES`, each corner slice as long): lane
-    /// `k` sums, over channels `c ≡ k (mod LANES)`,
+    /// `LANES` = 8 channels (`g.len()` a multiple of 8, each corner slice as long): lane
+    /// `k` sums, over channels `c ≡ k (mod 8)`,
     /// `u += g_c·(gy·(p10_c − p00_c) + fy·(p11_c − p01_c))` and
     /// `v += g_c·(gx·(p01_c − p00_c) + fx·(p11_c − p10_c))`, with `gx = 1 − fx`,
     /// `gy = 1 − fy`; the corners are `[p00, p10, p01, p11]`. Every implementation does the
@@ -174,8 +174,8 @@ impl Gemm for f32 {
     ) {
         use wide::f32x8;
         const _: () = assert!(LANES == 8, "one f32x8 per lane block");
-        let load = |x: &[f32], c0: usize| {
-            let block: [f32; 8] = x[c0..c0 + 8].try_into().expect("a block of 8 channels");
+        let load = |x: &[Self], c0: usize| {
+            let block: [Self; 8] = x[c0..c0 + 8].try_into().expect("a block of 8 channels");
             f32x8::from(block)
         };
         let (fxv, fyv) = (f32x8::splat(fx), f32x8::splat(fy));
@@ -285,8 +285,13 @@ mod tests {
         // The f32 override (explicit 8-lane vectors) against the documented per-lane sums,
         // written out here, over 4 blocks of channels and running sums that start non-zero.
         let mut rng = evogs_math::rng::SplitMix64::new(9);
-        let mut draw =
-            |n: usize| -> Vec<f32> { (0..n).map(|_| rng.uniform(-2.0, 2.0) as f32).collect() };
+        let mut draw = |n: usize| -> Vec<f32> {
+            (0..n)
+                .map(|_| {
+                    f32::from(u16::try_from(rng.below(4001)).expect("below 4001")) / 1000.0 - 2.0
+                })
+                .collect()
+        };
         let (g, p00, p10, p01, p11) = (draw(32), draw(32), draw(32), draw(32), draw(32));
         let start = (
             core::array::from_fn(|k| k as f32 * 0.25),
@@ -304,7 +309,11 @@ mod tests {
             }
             assert_eq!(got.0.map(f32::to_bits), want.0.map(f32::to_bits), "u lanes");
             assert_eq!(got.1.map(f32::to_bits), want.1.map(f32::to_bits), "v lanes");
-            assert!(got.0.iter().any(|&x| x != start.0[0]), "the sums moved");
+            assert_ne!(
+                got.0.map(f32::to_bits),
+                start.0.map(f32::to_bits),
+                "the sums moved"
+            );
         }
     }
 }
