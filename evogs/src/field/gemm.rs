@@ -29,12 +29,9 @@ const THIN: usize = 5;
 /// lane-parallel channel kernel of the HexPlane VJP.
 pub trait Gemm: Real {
     /// The coordinate-gradient partial sums of one bilinear sample over whole blocks of
-    /// `LANES` = 8 channels (`g.len()` a multiple of 8, each corner slice as long): lane
-    /// `k` sums, over channels `c ≡ k (mod 8)`,
-    /// `u += g_c·(gy·(p10_c − p00_c) + fy·(p11_c − p01_c))` and
-    /// `v += g_c·(gx·(p01_c − p00_c) + fx·(p11_c − p10_c))`, with `gx = 1 − fx`,
-    /// `gy = 1 − fy`; the corners are `[p00, p10, p01, p11]`. Every implementation does the
-    /// same operations in the same order per lane, so the result is bitwise the same.
+    /// `LANES` = 8 channels (`g.len()` a multiple of 8, each corner slice as long): what
+    /// [`coord_grad_sums`] adds, in the same operations and order per lane, so the result is
+    /// bitwise the same; a type may do it in vector registers.
     #[inline]
     fn coord_grad_lanes(
         g: &[Self],
@@ -43,15 +40,7 @@ pub trait Gemm: Real {
         fy: Self,
         acc: &mut ([Self; LANES], [Self; LANES]),
     ) {
-        let (gx, gy) = (Self::ONE - fx, Self::ONE - fy);
-        let [p00, p10, p01, p11] = corners;
-        for c0 in (0..g.len()).step_by(LANES) {
-            for k in 0..LANES {
-                let c = c0 + k;
-                acc.0[k] += g[c] * (gy * (p10[c] - p00[c]) + fy * (p11[c] - p01[c]));
-                acc.1[k] += g[c] * (gx * (p01[c] - p00[c]) + fx * (p11[c] - p10[c]));
-            }
-        }
+        coord_grad_sums(g, corners, fx, fy, acc);
     }
 
     /// `C ← alpha·A·B + beta·C` with `A` m×k, `B` k×n and `C` m×n given as strided views.
@@ -65,6 +54,28 @@ pub trait Gemm: Real {
         beta: Self,
         c: (&mut [Self], usize, usize, usize, usize),
     );
+}
+
+/// The coordinate-gradient partial sums of one bilinear sample, channel by channel: channel
+/// `c` adds to lane `c mod LANES`
+/// `u += g_c·(gy·(p10_c − p00_c) + fy·(p11_c − p01_c))` and
+/// `v += g_c·(gx·(p01_c − p00_c) + fx·(p11_c − p10_c))`, with `gx = 1 − fx`, `gy = 1 − fy`;
+/// the corners are `[p00, p10, p01, p11]`, each as long as `g`.
+#[inline]
+pub fn coord_grad_sums<T: Real>(
+    g: &[T],
+    corners: [&[T]; 4],
+    fx: T,
+    fy: T,
+    acc: &mut ([T; LANES], [T; LANES]),
+) {
+    let (gx, gy) = (T::ONE - fx, T::ONE - fy);
+    let [p00, p10, p01, p11] = corners;
+    for c in 0..g.len() {
+        let k = c % LANES;
+        acc.0[k] += g[c] * (gy * (p10[c] - p00[c]) + fy * (p11[c] - p01[c]));
+        acc.1[k] += g[c] * (gx * (p01[c] - p00[c]) + fx * (p11[c] - p10[c]));
+    }
 }
 
 /// The one implementation behind both scalar types.

@@ -20,7 +20,7 @@
 //! flat vector (so one Adam optimiser and one checkpoint cover everything); this type only
 //! knows the layout.
 
-use super::gemm::Gemm;
+use super::gemm::{Gemm, coord_grad_sums};
 use super::lanes::{self, LANES};
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
@@ -360,8 +360,6 @@ impl HexPlane {
             &params[r..r + n],
             &params[r + lk.col_step..r + lk.col_step + n],
         );
-        let (fx, fy) = (lk.fx, lk.fy);
-        let (gx, gy) = (T::ONE - fx, T::ONE - fy);
         // Channel c goes to lane c mod LANES (fixed order, vectorised): the whole blocks in
         // the scalar type's lane kernel, then the tail channel by channel.
         let mut acc = ([T::ZERO; LANES], [T::ZERO; LANES]);
@@ -369,17 +367,18 @@ impl HexPlane {
         T::coord_grad_lanes(
             &g[..full],
             [&p00[..full], &p10[..full], &p01[..full], &p11[..full]],
-            fx,
-            fy,
+            lk.fx,
+            lk.fy,
             &mut acc,
         );
-        let (acc_u, acc_v) = &mut acc;
-        for c in full..n {
-            let k = c - full;
-            acc_u[k] += g[c] * (gy * (p10[c] - p00[c]) + fy * (p11[c] - p01[c]));
-            acc_v[k] += g[c] * (gx * (p01[c] - p00[c]) + fx * (p11[c] - p10[c]));
-        }
-        let (gu, gv) = (lanes::total(*acc_u), lanes::total(*acc_v));
+        coord_grad_sums(
+            &g[full..],
+            [&p00[full..], &p10[full..], &p01[full..], &p11[full..]],
+            lk.fx,
+            lk.fy,
+            &mut acc,
+        );
+        let (gu, gv) = (lanes::total(acc.0), lanes::total(acc.1));
         (gu * lk.du, gv * lk.dv)
     }
 
