@@ -20,8 +20,8 @@
 //! flat vector (so one Adam optimiser and one checkpoint cover everything); this type only
 //! knows the layout.
 
-use super::gemm::{Gemm, coord_grad_sums};
-use super::lanes::{self, LANES};
+use super::gemm::Gemm;
+use super::lanes::{self, LANES, coord_grad_sums};
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
 
