@@ -473,7 +473,96 @@ pub type Vec6d = Vec6<f64>;
 
 #[cfg(test)]
 mod tests {
-    use super::Vec3;
+    use super::{Vec2, Vec3, Vec6};
+
+    fn bits<const N: usize>(a: [f64; N]) -> [u64; N] {
+        a.map(f64::to_bits)
+    }
+
+    #[test]
+    fn components_are_reached_by_index_each_in_its_own_slot() {
+        let mut a = Vec2::<f64>::new(1.5, -2.5);
+        assert_eq!(
+            (a[0].to_bits(), a[1].to_bits()),
+            (1.5_f64.to_bits(), (-2.5_f64).to_bits())
+        );
+        a[0] = 7.0;
+        a[1] = 8.0;
+        assert_eq!(bits(a.to_array()), bits([7.0, 8.0]), "Vec2 index_mut");
+
+        let v = Vec6::<f64>::from_array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        for i in 0..6 {
+            assert_eq!(v[i].to_bits(), v.to_array()[i].to_bits(), "Vec6 index {i}");
+        }
+        let mut w = Vec6::<f64>::zero();
+        for i in 0..6 {
+            w[i] = 10.0 + f64::from(u8::try_from(i).expect("small"));
+        }
+        assert_eq!(
+            bits(w.to_array()),
+            bits([10.0, 11.0, 12.0, 13.0, 14.0, 15.0]),
+            "index_mut"
+        );
+        for i in 0..6 {
+            let mut want = [0.0; 6];
+            want[i] = 1.0;
+            assert_eq!(
+                bits(Vec6::<f64>::unit(i).to_array()),
+                bits(want),
+                "unit({i})"
+            );
+        }
+    }
+
+    #[test]
+    fn finiteness_looks_at_every_component() {
+        assert!(Vec3::<f64>::new(1.0, 2.0, 3.0).is_finite(), "finite");
+        for i in 0..3 {
+            for bad in [f64::NAN, f64::INFINITY] {
+                let mut v = Vec3::<f64>::new(1.0, 2.0, 3.0);
+                v[i] = bad;
+                assert!(!v.is_finite(), "component {i} = {bad}");
+            }
+        }
+        assert!(Vec6::<f64>::unit(2).is_finite(), "finite");
+        for i in [0, 5] {
+            let mut v = Vec6::<f64>::unit(2);
+            v[i] = f64::NAN;
+            assert!(!v.is_finite(), "entry {i} = NaN");
+        }
+    }
+
+    #[test]
+    fn add_to_accumulates_into_the_leading_entries_only() {
+        let mut s = [1.0, 2.0, 3.0, 9.0];
+        Vec3::<f64>::new(10.0, 20.0, 30.0).add_to(&mut s);
+        assert_eq!(bits(s), bits([11.0, 22.0, 33.0, 9.0]), "Vec3");
+        let mut s = [1.0; 7];
+        Vec6::<f64>::from_array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]).add_to(&mut s);
+        assert_eq!(bits(s), bits([2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 1.0]), "Vec6");
+    }
+
+    #[test]
+    fn vec6_max_abs_and_cast() {
+        let v = Vec6::<f64>::from_array([1.0, -7.0, 3.0, 2.0, -0.5, 4.0]);
+        assert_eq!(v.max_abs().to_bits(), 7.0_f64.to_bits(), "largest |entry|");
+        let c: Vec6<f32> = v.cast();
+        assert_eq!(
+            c.to_array().map(f32::to_bits),
+            [1.0_f32, -7.0, 3.0, 2.0, -0.5, 4.0].map(f32::to_bits),
+            "cast to f32"
+        );
+    }
+
+    #[test]
+    fn vec2_dot_and_norms_are_exact_on_small_integers() {
+        // Distinct products in each slot, so a swapped operator changes the value.
+        let a = Vec2::<f64>::new(3.0, 4.0);
+        let b = Vec2::new(2.0, 5.0);
+        assert_eq!(a.dot(b).to_bits(), 26.0_f64.to_bits(), "3·2 + 4·5");
+        assert_eq!(a.norm_squared().to_bits(), 25.0_f64.to_bits(), "3² + 4²");
+        assert_eq!(a.norm().to_bits(), 5.0_f64.to_bits(), "√25");
+    }
 
     #[test]
     fn cross_is_orthogonal_and_right_handed() {

@@ -33,7 +33,8 @@ for c in "${crates[@]}"; do
     # A missed mutant makes cargo-mutants exit 2; the summary below still prints.
     # --all-features: the property tests (feature `proptest`) and the interop round trips
     # are part of what catches a mutant.
-    cargo mutants -p "$c" --all-features -o "$out" --timeout 120 "$@" || status=$?
+    # --profile mutants (Cargo.toml): the builds, which are the cost, at opt-level 1.
+    cargo mutants -p "$c" --all-features --profile mutants -o "$out" --timeout 120 "$@" || status=$?
     d="$out/mutants.out"
     caught=$(count "$d/caught.txt")
     missed=$(count "$d/missed.txt")
