@@ -539,6 +539,187 @@ mod tests {
         assert!(((m * Mat6::identity()) - m).max_abs() == 0.0, "identity");
     }
 
+    // Entry-wise references on small integers: every product and sum below is exact in
+    // f64, so each operation is compared bit for bit, and the entries are distinct enough
+    // that a changed operator or index changes a result.
+    const A3: [[f64; 3]; 3] = [[2.0, 3.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 1.0]]; // det 1
+    const B3: [[f64; 3]; 3] = [[5.0, -7.0, 11.0], [-13.0, 17.0, 19.0], [23.0, -29.0, 31.0]];
+
+    fn same<const R: usize, const C: usize>(a: [[f64; C]; R], b: [[f64; C]; R], what: &str) {
+        assert_eq!(
+            a.map(|r| r.map(f64::to_bits)),
+            b.map(|r| r.map(f64::to_bits)),
+            "{what}"
+        );
+    }
+
+    fn product<const N: usize>(a: [[f64; N]; N], b: [[f64; N]; N]) -> [[f64; N]; N] {
+        core::array::from_fn(|i| core::array::from_fn(|j| (0..N).map(|k| a[i][k] * b[k][j]).sum()))
+    }
+
+    fn transposed<const N: usize>(a: [[f64; N]; N]) -> [[f64; N]; N] {
+        core::array::from_fn(|i| core::array::from_fn(|j| a[j][i]))
+    }
+
+    fn entrywise<const N: usize>(
+        a: [[f64; N]; N],
+        b: [[f64; N]; N],
+        f: impl Fn(f64, f64) -> f64,
+    ) -> [[f64; N]; N] {
+        core::array::from_fn(|i| core::array::from_fn(|j| f(a[i][j], b[i][j])))
+    }
+
+    #[test]
+    fn mat2_operations_match_their_formulas() {
+        use super::Mat2;
+        use crate::Vec2;
+        let a = Mat2::from_rows([[2.0, 3.0], [5.0, 7.0]]);
+        same(a.transpose().m, [[2.0, 5.0], [3.0, 7.0]], "transpose");
+        assert_eq!(a.det().to_bits(), (-1.0_f64).to_bits(), "2·7 − 3·5");
+        let v = a.mul_vec(Vec2::new(11.0, 13.0));
+        assert_eq!(
+            [v.x, v.y].map(f64::to_bits),
+            [61.0_f64, 146.0].map(f64::to_bits),
+            "A v"
+        );
+        same(
+            Mat2::<f64>::identity().m,
+            [[1.0, 0.0], [0.0, 1.0]],
+            "identity",
+        );
+        same(Mat2::<f64>::zero().m, [[0.0; 2]; 2], "zero");
+    }
+
+    #[test]
+    fn mat3_operations_match_their_formulas() {
+        let (a, b) = (Mat3::from_rows(A3), Mat3::from_rows(B3));
+        let v = Vec3::new(3.0, -5.0, 7.0);
+        let vm = [[v.x], [v.y], [v.z]];
+        same(a.transpose().m, transposed(A3), "transpose");
+        same((a * b).m, product(A3, B3), "A B");
+        same(a.mul_mat(b).m, product(A3, B3), "mul_mat");
+        let av = product3x1(A3, vm);
+        same(
+            [(a * v).to_array()],
+            [[av[0][0], av[1][0], av[2][0]]],
+            "A v",
+        );
+        let atv = product3x1(transposed(A3), vm);
+        same(
+            [a.tr_mul_vec(v).to_array()],
+            [[atv[0][0], atv[1][0], atv[2][0]]],
+            "Aᵀ v",
+        );
+        same((a + b).m, entrywise(A3, B3, |x, y| x + y), "A + B");
+        let mut c = a;
+        c += b;
+        same(c.m, entrywise(A3, B3, |x, y| x + y), "A += B");
+        same((a - b).m, entrywise(A3, B3, |x, y| x - y), "A − B");
+        same((-b).m, B3.map(|r| r.map(|x| -x)), "−B");
+        same(b.scale(3.0).m, B3.map(|r| r.map(|x| 3.0 * x)), "3 B");
+        let fro: f64 = A3
+            .iter()
+            .flatten()
+            .zip(B3.iter().flatten())
+            .map(|(x, y)| x * y)
+            .sum();
+        assert_eq!(a.frobenius_dot(b).to_bits(), fro.to_bits(), "⟨A, B⟩");
+        assert_eq!(b.max_abs().to_bits(), 31.0_f64.to_bits(), "max |b_ij|");
+        assert_eq!(a.trace().to_bits(), 5.0_f64.to_bits(), "2 + 2 + 1");
+        assert_eq!(b.trace().to_bits(), 53.0_f64.to_bits(), "5 + 17 + 31");
+        assert_eq!(a.det().to_bits(), 1.0_f64.to_bits(), "det A");
+        // det B by the rule of Sarrus.
+        let m = B3;
+        let sarrus =
+            m[0][0] * m[1][1] * m[2][2] + m[0][1] * m[1][2] * m[2][0] + m[0][2] * m[1][0] * m[2][1]
+                - m[0][2] * m[1][1] * m[2][0]
+                - m[0][0] * m[1][2] * m[2][1]
+                - m[0][1] * m[1][0] * m[2][2];
+        assert_eq!(b.det().to_bits(), sarrus.to_bits(), "det B");
+        // det A = 1: the inverse is the adjugate, in integers (its zero cofactor is negated).
+        same(
+            a.inverse().expect("invertible").m,
+            [[1.0, -2.0, 1.0], [-0.0, 1.0, -1.0], [-1.0, 1.0, 1.0]],
+            "A⁻¹",
+        );
+        let w = Vec3::new(2.0, -3.0, 4.0);
+        let outer: [[f64; 3]; 3] =
+            core::array::from_fn(|i| core::array::from_fn(|j| v.to_array()[i] * w.to_array()[j]));
+        same(Mat3::outer(v, w).m, outer, "v wᵀ");
+        for k in 0..3 {
+            same([b.row(k).to_array()], [B3[k]], "row");
+            same([b.col(k).to_array()], [transposed(B3)[k]], "col");
+        }
+        same(
+            Mat3::from_cols(b.col(0), b.col(1), b.col(2)).m,
+            B3,
+            "from_cols",
+        );
+        same(
+            Mat3::diag(v).m,
+            [[3.0, 0.0, 0.0], [0.0, -5.0, 0.0], [0.0, 0.0, 7.0]],
+            "diag",
+        );
+        same(Mat3::from_flat(b.to_flat()).m, B3, "flat round trip");
+        assert_eq!(b.to_flat()[5].to_bits(), 19.0_f64.to_bits(), "row-major");
+        let f: Mat3<f32> = b.cast();
+        same(f.cast::<f64>().m, B3, "cast to f32 and back");
+    }
+
+    fn product3x1(a: [[f64; 3]; 3], v: [[f64; 1]; 3]) -> [[f64; 1]; 3] {
+        core::array::from_fn(|i| [(0..3).map(|k| a[i][k] * v[k][0]).sum()])
+    }
+
+    #[test]
+    fn mat6_operations_match_their_formulas() {
+        use super::Mat6;
+        use crate::Vec6;
+        let m6: [[f64; 6]; 6] = core::array::from_fn(|i| {
+            core::array::from_fn(|j| {
+                let (i, j) = (i as f64, j as f64);
+                (3.0 * i + 7.0 * j + i * j) % 17.0 - 8.0
+            })
+        });
+        let n6: [[f64; 6]; 6] = core::array::from_fn(|i| {
+            core::array::from_fn(|j| {
+                let (i, j) = (i as f64, j as f64);
+                (5.0 * i - 2.0 * j + 2.0 * i * j) % 13.0 + 1.0
+            })
+        });
+        let (m, n) = (Mat6::from_rows(m6), Mat6::from_rows(n6));
+        same(
+            Mat6::<f64>::identity().m,
+            core::array::from_fn(|i| core::array::from_fn(|j| if i == j { 1.0 } else { 0.0 })),
+            "identity",
+        );
+        same(m.transpose().m, transposed(m6), "transpose");
+        same((m * n).m, product(m6, n6), "M N");
+        same((m + n).m, entrywise(m6, n6, |x, y| x + y), "M + N");
+        same((m - n).m, entrywise(m6, n6, |x, y| x - y), "M − N");
+        same((-m).m, m6.map(|r| r.map(|x| -x)), "−M");
+        same(m.scale(-2.0).m, m6.map(|r| r.map(|x| -2.0 * x)), "−2 M");
+        let top = m6.iter().flatten().fold(0.0_f64, |s, x| s.max(x.abs()));
+        assert_eq!(m.max_abs().to_bits(), top.to_bits(), "max |m_ij|");
+        let v = [1.0, -2.0, 3.0, -4.0, 5.0, -6.0];
+        let mv: [f64; 6] = core::array::from_fn(|i| (0..6).map(|k| m6[i][k] * v[k]).sum());
+        let mtv: [f64; 6] = core::array::from_fn(|j| (0..6).map(|k| m6[k][j] * v[k]).sum());
+        same([(m * Vec6::from_array(v)).to_array()], [mv], "M v");
+        same(
+            [m.tr_mul_vec(Vec6::from_array(v)).to_array()],
+            [mtv],
+            "Mᵀ v",
+        );
+        for (br, bc) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+            let want: [[f64; 3]; 3] =
+                core::array::from_fn(|i| core::array::from_fn(|j| m6[3 * br + i][3 * bc + j]));
+            same(m.block(br, bc).m, want, "block");
+        }
+        let back = Mat6::from_blocks(m.block(0, 0), m.block(0, 1), m.block(1, 0), m.block(1, 1));
+        same(back.m, m6, "from_blocks ∘ block");
+        let f: Mat6<f32> = m.cast();
+        same(f.cast::<f64>().m, m6, "cast to f32 and back");
+    }
+
     #[test]
     fn transposed_product() {
         let a = Mat3::from_rows([[2.0, 0.3, -1.0], [0.5, 1.5, 0.2], [-0.4, 0.1, 3.0]]);
