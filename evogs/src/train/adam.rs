@@ -7,6 +7,11 @@
 //! dynamics start) start their bias correction at 1.
 
 use crate::model::retain::{permute_items, retain_items};
+use evogs_math::Par;
+
+/// Units (Gaussians, parameters) of a group that one task steps: a fixed number, so a
+/// parallel step splits the work the same way on any thread count.
+const RUN_UNITS: usize = 4096;
 
 /// Adam moments of one parameter group.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -40,6 +45,39 @@ impl Default for Adam {
     }
 }
 
+/// The scalars of one Adam step of a group: β₁, β₂, ε and the bias corrections of its
+/// step count, in f32 as the update runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdamStep {
+    b1: f32,
+    b2: f32,
+    step_size: f32,
+    eps: f32,
+    inv_sqrt_bc2: f32,
+}
+
+impl AdamStep {
+    /// Steps `(parameter, gradient)` pairs against their moments `m` and `v`, in order.
+    ///
+    /// # Panics
+    /// If the number of pairs differs from the number of moments.
+    pub fn apply<'a>(
+        self,
+        pairs: impl Iterator<Item = (&'a mut f32, f32)>,
+        m: &mut [f32],
+        v: &mut [f32],
+    ) {
+        let mut count = 0;
+        for ((x, gi), (m, v)) in pairs.zip(m.iter_mut().zip(v.iter_mut())) {
+            *m = self.b1 * *m + (1.0 - self.b1) * gi;
+            *v = self.b2 * *v + (1.0 - self.b2) * gi * gi;
+            *x -= self.step_size * *m / (v.sqrt() * self.inv_sqrt_bc2 + self.eps);
+            count += 1;
+        }
+        assert_eq!(count, m.len(), "Adam group size mismatch");
+    }
+}
+
 impl AdamState {
     /// Zero moments for `n` parameters.
     #[must_use]
@@ -64,29 +102,19 @@ impl AdamState {
     }
 
     /// One Adam step of `x` with gradient `g` and learning rate `lr` (with lr = 0 the
-    /// moments are still updated, as PyTorch does).
+    /// moments are still updated, as PyTorch does), on the calling thread.
     ///
     /// # Panics
     /// If the lengths differ.
     pub fn step(&mut self, adam: &Adam, lr: f64, x: &mut [f32], g: &[f32]) {
-        assert!(
-            x.len() == self.m.len() && g.len() == x.len(),
-            "Adam group size mismatch"
-        );
-        self.step_iter(adam, lr, x.iter_mut().zip(g.iter().copied()));
+        self.step_units(adam, lr, Par::Seq, x, g, [1, 1], |s, x, g, m, v| {
+            s.apply(x.iter_mut().zip(g.iter().copied()), m, v);
+        });
     }
 
-    /// One Adam step over `(parameter, gradient)` pairs (e.g. the components of a
-    /// `Vec<Vec3<f32>>`), in order; there must be exactly `len()` pairs.
-    ///
-    /// # Panics
-    /// If the number of pairs differs from the group size.
-    pub fn step_iter<'a>(
-        &mut self,
-        adam: &Adam,
-        lr: f64,
-        items: impl Iterator<Item = (&'a mut f32, f32)>,
-    ) {
+    /// Counts a step of the group and returns its scalars (the bias corrections of the
+    /// new step count).
+    pub fn begin(&mut self, adam: &Adam, lr: f64) -> AdamStep {
         self.step += 1;
         #[allow(clippy::cast_possible_truncation, reason = "step counts are small")]
         let t = self.step.min(i32::MAX as u64) as i32;
@@ -96,21 +124,61 @@ impl AdamState {
             clippy::cast_possible_truncation,
             reason = "optimiser arithmetic in f32"
         )]
-        let (b1, b2, step_size, eps, inv_sqrt_bc2) = (
-            adam.beta1 as f32,
-            adam.beta2 as f32,
-            (lr / bc1) as f32,
-            adam.eps as f32,
-            (1.0 / bc2.sqrt()) as f32,
-        );
-        let mut count = 0;
-        for ((x, gi), (m, v)) in items.zip(self.m.iter_mut().zip(self.v.iter_mut())) {
-            *m = b1 * *m + (1.0 - b1) * gi;
-            *v = b2 * *v + (1.0 - b2) * gi * gi;
-            *x -= step_size * *m / (v.sqrt() * inv_sqrt_bc2 + eps);
-            count += 1;
+        AdamStep {
+            b1: adam.beta1 as f32,
+            b2: adam.beta2 as f32,
+            step_size: (lr / bc1) as f32,
+            eps: adam.eps as f32,
+            inv_sqrt_bc2: (1.0 / bc2.sqrt()) as f32,
         }
-        assert_eq!(count, self.m.len(), "Adam group size mismatch");
+    }
+
+    /// One Adam step of a group stored as units (a Gaussian, a parameter): `x` and `g`
+    /// hold `shape[0]` items per unit and the moments `shape[1]` values per unit.
+    /// `apply` steps one run of whole units against their moments (usually with
+    /// [`AdamStep::apply`]). The units are cut into runs of a fixed length, which
+    /// `Par::Rayon` steps in parallel: every value is updated by the same arithmetic, so
+    /// the result is bitwise the sequential one on any thread count.
+    ///
+    /// # Panics
+    /// If `x` and `g` differ in length, are not whole units, or hold another number of
+    /// units than the moments; or if `apply` does (a run of pairs that does not match its
+    /// moments).
+    pub fn step_units<I: Send, G: Sync>(
+        &mut self,
+        adam: &Adam,
+        lr: f64,
+        par: Par,
+        x: &mut [I],
+        g: &[G],
+        shape: [usize; 2],
+        apply: impl Fn(AdamStep, &mut [I], &[G], &mut [f32], &mut [f32]) + Sync,
+    ) {
+        let [items, moments] = shape;
+        assert!(
+            x.len() == g.len()
+                && items > 0
+                && x.len().is_multiple_of(items)
+                && x.len() / items * moments == self.m.len(),
+            "Adam group size mismatch"
+        );
+        let s = self.begin(adam, lr);
+        let (xn, mn) = (RUN_UNITS * items, RUN_UNITS * moments);
+        let runs = x
+            .chunks_mut(xn)
+            .zip(g.chunks(xn))
+            .zip(self.m.chunks_mut(mn).zip(self.v.chunks_mut(mn)));
+        match par {
+            Par::Seq => runs.for_each(|((x, g), (m, v))| apply(s, x, g, m, v)),
+            #[cfg(feature = "rayon")]
+            Par::Rayon => {
+                use rayon::prelude::*;
+                x.par_chunks_mut(xn)
+                    .zip(g.par_chunks(xn))
+                    .zip(self.m.par_chunks_mut(mn).zip(self.v.par_chunks_mut(mn)))
+                    .for_each(|((x, g), (m, v))| apply(s, x, g, m, v));
+            }
+        }
     }
 
     /// Keeps the entries of the items where `keep[item]` is true (`stride` values per item).
@@ -201,6 +269,51 @@ mod tests {
         let mut s = AdamState::new(1);
         s.step(&Adam::default(), 0.1, &mut x, &[0.3]);
         assert!((x[0] - 0.9).abs() < 1e-6, "x = {}", x[0]);
+    }
+
+    #[test]
+    fn parallel_runs_step_bitwise_as_one_thread_does() {
+        // Units of two items of three values (as the SH groups are stored), over more units
+        // than one run, with a ragged last run.
+        let units = 2 * RUN_UNITS + 37;
+        let x0: Vec<[f32; 3]> = (0..2 * units)
+            .map(|i| {
+                let t = i as f32;
+                [(t * 0.37).sin(), (t * 0.11).cos(), 0.5 - (t * 0.05).sin()]
+            })
+            .collect();
+        let apply =
+            |s: AdamStep, x: &mut [[f32; 3]], g: &[[f32; 3]], m: &mut [f32], v: &mut [f32]| {
+                s.apply(
+                    x.iter_mut()
+                        .zip(g)
+                        .flat_map(|(a, d)| a.iter_mut().zip(d.iter().copied())),
+                    m,
+                    v,
+                );
+            };
+        let run = |par: Par| {
+            let mut x = x0.clone();
+            let mut st = AdamState::new(6 * units);
+            for k in 0..3 {
+                let shift = 0.1 * k as f32;
+                let g: Vec<[f32; 3]> = x
+                    .iter()
+                    .map(|a| [a[0] - shift, 2.0 * a[1], a[2] * a[0]])
+                    .collect();
+                st.step_units(&Adam::default(), 0.01, par, &mut x, &g, [2, 6], apply);
+            }
+            (x, st)
+        };
+        let (xs, ss) = run(Par::Seq);
+        assert_ne!(xs, x0, "the parameters moved");
+        let (xp, sp) = run(Par::best());
+        let bits = |x: &[[f32; 3]]| x.iter().flatten().map(|e| e.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&xs), bits(&xp), "parameters");
+        let mbits =
+            |s: &AdamState| [&s.m, &s.v].map(|a| a.iter().map(|e| e.to_bits()).collect::<Vec<_>>());
+        assert_eq!(mbits(&ss), mbits(&sp), "moments");
+        assert_eq!(ss.step, 3, "steps counted");
     }
 
     #[test]

@@ -11,10 +11,10 @@
 //! | HexPlane ("grid") | `grid_lr(i − warm-up)·extent`, exponential decay |
 //! | MLP ("deformation") | `deformation_lr(i − warm-up)·extent`, exponential decay |
 
-use super::adam::{Adam, AdamState, ExpSchedule};
+use super::adam::{Adam, AdamState, AdamStep, ExpSchedule};
 use crate::config::OptimConfig;
 use crate::model::{Model, ModelGrad};
-use evogs_math::{Quat, Vec3};
+use evogs_math::{Par, Quat, Vec3};
 
 /// Adam states of the parameter groups of one anchor (positions, log-scales, quaternions).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -345,11 +345,29 @@ impl Optimizer {
 
     /// One Adam step of every trainable group. The anchors and the field are stepped only
     /// while the dynamics are active (their gradients are zero before); the higher SH
-    /// coefficients only when there are any.
-    pub fn step(&mut self, model: &mut Model<f32>, grad: &ModelGrad<f32>, lr: &LearningRates) {
+    /// coefficients only when there are any. `par` steps each group in fixed runs of
+    /// units, bitwise the same on any thread count.
+    pub fn step(
+        &mut self,
+        model: &mut Model<f32>,
+        grad: &ModelGrad<f32>,
+        lr: &LearningRates,
+        par: Par,
+    ) {
         let adam = self.adam;
         let k = model.canonical.coeffs_per_gaussian();
         let (gr, mr) = (model.field.grid_range(), model.field.mlp_range());
+        let vec3s =
+            |s: AdamStep, x: &mut [Vec3<f32>], g: &[Vec3<f32>], m: &mut [f32], v: &mut [f32]| {
+                s.apply(vec3_pairs(x, g), m, v);
+            };
+        let quats =
+            |s: AdamStep, x: &mut [Quat<f32>], g: &[Quat<f32>], m: &mut [f32], v: &mut [f32]| {
+                s.apply(quat_pairs(x, g), m, v);
+            };
+        let flat = |s: AdamStep, x: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32]| {
+            s.apply(x.iter_mut().zip(g.iter().copied()), m, v);
+        };
         self.for_each_group(|group, st| {
             if (group.dynamic() && !model.dynamics_active) || (group == Group::ShRest && k == 1) {
                 return;
@@ -358,59 +376,99 @@ impl Optimizer {
             let c = &mut model.canonical;
             let g = &grad.canonical;
             match group {
-                Group::Means => st.step_iter(&adam, rate, vec3_pairs(&mut c.means, &g.means)),
+                Group::Means => {
+                    st.step_units(&adam, rate, par, &mut c.means, &g.means, [1, 3], vec3s);
+                }
                 Group::LogScales => {
-                    st.step_iter(&adam, rate, vec3_pairs(&mut c.log_scales, &g.log_scales));
-                }
-                Group::Quats => st.step_iter(&adam, rate, quat_pairs(&mut c.quats, &g.quats)),
-                Group::Opacity => st.step(&adam, rate, &mut c.opacity_logits, &g.opacity_logits),
-                Group::ShDc => {
-                    let dc = c.sh.iter_mut().zip(&g.sh).step_by(k);
-                    st.step_iter(
+                    st.step_units(
                         &adam,
                         rate,
-                        dc.flat_map(|(v, d)| v.iter_mut().zip(d.iter().copied())),
+                        par,
+                        &mut c.log_scales,
+                        &g.log_scales,
+                        [1, 3],
+                        vec3s,
                     );
                 }
-                Group::ShRest => {
-                    let rest = c.sh.iter_mut().zip(&g.sh).enumerate();
-                    st.step_iter(
+                Group::Quats => {
+                    st.step_units(&adam, rate, par, &mut c.quats, &g.quats, [1, 4], quats);
+                }
+                Group::Opacity => {
+                    st.step_units(
                         &adam,
                         rate,
-                        rest.filter(|(i, _)| i % k != 0)
-                            .flat_map(|(_, (v, d))| v.iter_mut().zip(d.iter().copied())),
+                        par,
+                        &mut c.opacity_logits,
+                        &g.opacity_logits,
+                        [1, 1],
+                        flat,
                     );
                 }
-                Group::AnchorMeans(a) => st.step_iter(
+                // The SH coefficients of a Gaussian are k items of 3 values: the first is the
+                // DC group's, the other k − 1 the rest's.
+                Group::ShDc => st.step_units(
                     &adam,
                     rate,
-                    vec3_pairs(&mut model.anchors[a].means, &grad.anchors[a].means),
+                    par,
+                    &mut c.sh,
+                    &g.sh,
+                    [k, 3],
+                    |s, x, g, m, v| {
+                        let dc = x.iter_mut().zip(g).step_by(k);
+                        s.apply(
+                            dc.flat_map(|(a, d)| a.iter_mut().zip(d.iter().copied())),
+                            m,
+                            v,
+                        );
+                    },
                 ),
-                Group::AnchorLogScales(a) => st.step_iter(
-                    &adam,
-                    rate,
-                    vec3_pairs(
+                Group::ShRest => {
+                    st.step_units(
+                        &adam,
+                        rate,
+                        par,
+                        &mut c.sh,
+                        &g.sh,
+                        [k, 3 * (k - 1)],
+                        |s, x, g, m, v| {
+                            let rest = x.iter_mut().zip(g).enumerate().filter(|(i, _)| i % k != 0);
+                            s.apply(
+                                rest.flat_map(|(_, (a, d))| a.iter_mut().zip(d.iter().copied())),
+                                m,
+                                v,
+                            );
+                        },
+                    );
+                }
+                Group::AnchorMeans(a) => {
+                    let (x, g) = (&mut model.anchors[a].means, &grad.anchors[a].means);
+                    st.step_units(&adam, rate, par, x, g, [1, 3], vec3s);
+                }
+                Group::AnchorLogScales(a) => {
+                    let (x, g) = (
                         &mut model.anchors[a].log_scales,
                         &grad.anchors[a].log_scales,
-                    ),
-                ),
-                Group::AnchorQuats(a) => st.step_iter(
-                    &adam,
-                    rate,
-                    quat_pairs(&mut model.anchors[a].quats, &grad.anchors[a].quats),
-                ),
-                Group::Grid => st.step(
-                    &adam,
-                    rate,
-                    &mut model.field.params_mut()[gr.clone()],
-                    &grad.field[gr.clone()],
-                ),
-                Group::Mlp => st.step(
-                    &adam,
-                    rate,
-                    &mut model.field.params_mut()[mr.clone()],
-                    &grad.field[mr.clone()],
-                ),
+                    );
+                    st.step_units(&adam, rate, par, x, g, [1, 3], vec3s);
+                }
+                Group::AnchorQuats(a) => {
+                    let (x, g) = (&mut model.anchors[a].quats, &grad.anchors[a].quats);
+                    st.step_units(&adam, rate, par, x, g, [1, 4], quats);
+                }
+                Group::Grid => {
+                    let (x, g) = (
+                        &mut model.field.params_mut()[gr.clone()],
+                        &grad.field[gr.clone()],
+                    );
+                    st.step_units(&adam, rate, par, x, g, [1, 1], flat);
+                }
+                Group::Mlp => {
+                    let (x, g) = (
+                        &mut model.field.params_mut()[mr.clone()],
+                        &grad.field[mr.clone()],
+                    );
+                    st.step_units(&adam, rate, par, x, g, [1, 1], flat);
+                }
                 Group::WaypointGrid | Group::WaypointMlp => {
                     let f = model.waypoint_field.as_mut().expect(NO_WAYPOINT);
                     let r = if group == Group::WaypointGrid {
@@ -418,12 +476,8 @@ impl Optimizer {
                     } else {
                         f.mlp_range()
                     };
-                    st.step(
-                        &adam,
-                        rate,
-                        &mut f.params_mut()[r.clone()],
-                        &grad.waypoint_field[r],
-                    );
+                    let (x, g) = (&mut f.params_mut()[r.clone()], &grad.waypoint_field[r]);
+                    st.step_units(&adam, rate, par, x, g, [1, 1], flat);
                 }
             }
         });

@@ -525,7 +525,7 @@ impl Trainer {
         }
         let lr = self.schedule.learning_rates(it);
         let optimizer_start = Instant::now();
-        st.optim.step(&mut self.model, &grad, &lr);
+        st.optim.step(&mut self.model, &grad, &lr, self.par);
         report.optimizer_seconds = optimizer_start.elapsed().as_secs_f64();
         self.grad = Some(grad);
         if let Some(prune_big) = self.schedule.densify(it) {
