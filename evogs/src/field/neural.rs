@@ -236,6 +236,11 @@ impl<T: Gemm> NeuralField<T> {
     pub fn set_par(&mut self, par: Par) {
         self.par = par;
     }
+    /// The parallelism its batched evaluations and VJPs use.
+    #[must_use]
+    pub const fn par(&self) -> Par {
+        self.par
+    }
     /// Attaches a [`FieldProfile`] that accumulates the time of every batched evaluation,
     /// VJP and matrix product from now on (`None` detaches it; results never depend on it).
     pub fn set_profile(&mut self, profile: Option<Arc<FieldProfile>>) {

@@ -323,6 +323,7 @@ pub fn regularizers_and_grad<T: Gemm>(
             &model.field.params()[range.clone()],
             &s.plane_reg,
             &mut grad.field[range],
+            model.field.par(),
         );
         losses.planes = v.total;
         if let Some(wf) = &model.waypoint_field {
@@ -333,6 +334,7 @@ pub fn regularizers_and_grad<T: Gemm>(
                 &wf.params()[range.clone()],
                 &s.plane_reg,
                 &mut grad.waypoint_field[range],
+                wf.par(),
             );
             losses.planes += v.total;
         }
