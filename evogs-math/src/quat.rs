@@ -280,8 +280,124 @@ pub type Quatd = Quat<f64>;
 
 #[cfg(test)]
 mod tests {
-    use super::Quat;
+    use super::{Quat, rotation_from_raw};
     use crate::Vec3;
+
+    fn bits(a: [f64; 4]) -> [u64; 4] {
+        a.map(f64::to_bits)
+    }
+
+    fn bits3(v: Vec3<f64>) -> [u64; 3] {
+        v.to_array().map(f64::to_bits)
+    }
+
+    #[test]
+    fn quaternion_algebra_matches_its_formulas_on_small_integers() {
+        // Every value below is exact in f64, so each operation is compared bit for bit.
+        let p = Quat::<f64>::new(2.0, 3.0, 5.0, 7.0);
+        let q = Quat::new(11.0, -13.0, 17.0, 19.0);
+        assert_eq!(
+            bits(p.conj().to_array()),
+            bits([2.0, -3.0, -5.0, -7.0]),
+            "conjugate"
+        );
+        assert_eq!(
+            p.dot(q).to_bits(),
+            201.0_f64.to_bits(),
+            "22 − 39 + 85 + 133"
+        );
+        assert_eq!(
+            p.norm_squared().to_bits(),
+            87.0_f64.to_bits(),
+            "4 + 9 + 25 + 49"
+        );
+        assert_eq!(p.norm().to_bits(), 87.0_f64.sqrt().to_bits(), "√87");
+        assert_eq!(
+            bits(p.scale(3.0).to_array()),
+            bits([6.0, 9.0, 15.0, 21.0]),
+            "3 p"
+        );
+        assert_eq!(
+            bits((p + q).to_array()),
+            bits([13.0, -10.0, 22.0, 26.0]),
+            "p + q"
+        );
+        assert_eq!(
+            bits((p - q).to_array()),
+            bits([-9.0, 16.0, -12.0, -12.0]),
+            "p − q"
+        );
+        assert_eq!(bits((-p).to_array()), bits([-2.0, -3.0, -5.0, -7.0]), "−p");
+        assert_eq!(
+            bits(Quat::new(2.0, -2.0, 2.0, 2.0).normalize().to_array()),
+            bits([0.5, -0.5, 0.5, 0.5]),
+            "q/|q|"
+        );
+        // The Hamilton product in scalar-vector form: (a, u)(b, v) = (ab − u·v, av + bu + u × v).
+        let (a, u, b, v) = (p.w, p.vec(), q.w, q.vec());
+        let want = Quat::from_parts(a * b - u.dot(v), v * a + u * b + u.cross(v));
+        assert_eq!(bits((p * q).to_array()), bits(want.to_array()), "p ⊗ q");
+        assert_eq!(
+            bits(p.mul_quat(q).to_array()),
+            bits(want.to_array()),
+            "mul_quat"
+        );
+        let mut s = [0.0; 5];
+        p.write_to(&mut s);
+        assert_eq!(
+            bits([s[0], s[1], s[2], s[3]]),
+            bits(p.to_array()),
+            "w, x, y, z in order"
+        );
+        assert_eq!(
+            bits(Quat::from_slice(&s).to_array()),
+            bits(p.to_array()),
+            "from_slice"
+        );
+        let f: Quat<f32> = q.cast();
+        assert_eq!(
+            bits(f.cast::<f64>().to_array()),
+            bits(q.to_array()),
+            "cast and back"
+        );
+    }
+
+    #[test]
+    fn finiteness_looks_at_every_component() {
+        assert!(Quat::<f64>::identity().is_finite(), "identity");
+        for i in 0..4 {
+            let mut a = [1.0; 4];
+            a[i] = f64::NAN;
+            assert!(!Quat::from_array(a).is_finite(), "component {i} NaN");
+        }
+    }
+
+    #[test]
+    fn rotations_by_half_integer_quaternions_are_exact_signed_permutations() {
+        // (1 + i + j + k)/2 turns x → y → z → x by 120° about (1, 1, 1).
+        let q = Quat::<f64>::new(0.5, 0.5, 0.5, 0.5);
+        let v = Vec3::new(3.0, -5.0, 7.0);
+        assert_eq!(bits3(q.rotate(v)), bits3(Vec3::new(7.0, 3.0, -5.0)), "R v");
+        assert_eq!(
+            bits3(q.rotate_inv(v)),
+            bits3(Vec3::new(-5.0, 7.0, 3.0)),
+            "Rᵀ v"
+        );
+        let perm = [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        assert_eq!(q.to_rotation_matrix().m, perm, "R");
+        assert_eq!(rotation_from_raw(q.scale(4.0)).m, perm, "R of the raw 4q");
+        // Every sign pattern of a half-integer unit quaternion: the matrix against its
+        // action on the axes, entry by entry.
+        for signs in 0..16_u8 {
+            let s = |b: u8| if signs & (1 << b) == 0 { 0.5 } else { -0.5 };
+            let q = Quat::<f64>::new(s(0), s(1), s(2), s(3));
+            let r = q.to_rotation_matrix();
+            for c in 0..3 {
+                let col = q.rotate(Vec3::unit(c));
+                assert_eq!(bits3(r.col(c)), bits3(col), "column {c} of R({signs:04b})");
+            }
+        }
+    }
 
     #[test]
     fn rotate_agrees_with_matrix_and_sandwich() {
