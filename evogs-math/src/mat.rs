@@ -557,6 +557,10 @@ mod tests {
         core::array::from_fn(|i| core::array::from_fn(|j| (0..N).map(|k| a[i][k] * b[k][j]).sum()))
     }
 
+    fn times<const N: usize>(a: [[f64; N]; N], v: [f64; N]) -> [f64; N] {
+        core::array::from_fn(|i| (0..N).map(|k| a[i][k] * v[k]).sum())
+    }
+
     fn transposed<const N: usize>(a: [[f64; N]; N]) -> [[f64; N]; N] {
         core::array::from_fn(|i| core::array::from_fn(|j| a[j][i]))
     }
@@ -594,20 +598,13 @@ mod tests {
     fn mat3_operations_match_their_formulas() {
         let (a, b) = (Mat3::from_rows(A3), Mat3::from_rows(B3));
         let v = Vec3::new(3.0, -5.0, 7.0);
-        let vm = [[v.x], [v.y], [v.z]];
         same(a.transpose().m, transposed(A3), "transpose");
         same((a * b).m, product(A3, B3), "A B");
         same(a.mul_mat(b).m, product(A3, B3), "mul_mat");
-        let av = product3x1(A3, vm);
-        same(
-            [(a * v).to_array()],
-            [[av[0][0], av[1][0], av[2][0]]],
-            "A v",
-        );
-        let atv = product3x1(transposed(A3), vm);
+        same([(a * v).to_array()], [times(A3, v.to_array())], "A v");
         same(
             [a.tr_mul_vec(v).to_array()],
-            [[atv[0][0], atv[1][0], atv[2][0]]],
+            [times(transposed(A3), v.to_array())],
             "Aᵀ v",
         );
         same((a + b).m, entrywise(A3, B3, |x, y| x + y), "A + B");
@@ -666,10 +663,6 @@ mod tests {
         same(f.cast::<f64>().m, B3, "cast to f32 and back");
     }
 
-    fn product3x1(a: [[f64; 3]; 3], v: [[f64; 1]; 3]) -> [[f64; 1]; 3] {
-        core::array::from_fn(|i| [(0..3).map(|k| a[i][k] * v[k][0]).sum()])
-    }
-
     #[test]
     fn mat6_operations_match_their_formulas() {
         use super::Mat6;
@@ -701,12 +694,14 @@ mod tests {
         let top = m6.iter().flatten().fold(0.0_f64, |s, x| s.max(x.abs()));
         assert_eq!(m.max_abs().to_bits(), top.to_bits(), "max |m_ij|");
         let v = [1.0, -2.0, 3.0, -4.0, 5.0, -6.0];
-        let mv: [f64; 6] = core::array::from_fn(|i| (0..6).map(|k| m6[i][k] * v[k]).sum());
-        let mtv: [f64; 6] = core::array::from_fn(|j| (0..6).map(|k| m6[k][j] * v[k]).sum());
-        same([(m * Vec6::from_array(v)).to_array()], [mv], "M v");
+        same(
+            [(m * Vec6::from_array(v)).to_array()],
+            [times(m6, v)],
+            "M v",
+        );
         same(
             [m.tr_mul_vec(Vec6::from_array(v)).to_array()],
-            [mtv],
+            [times(transposed(m6), v)],
             "Mᵀ v",
         );
         for (br, bc) in [(0, 0), (0, 1), (1, 0), (1, 1)] {

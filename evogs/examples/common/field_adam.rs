@@ -3,6 +3,7 @@
 
 use evogs::field::NeuralField;
 use evogs::train::adam::{Adam, AdamState};
+use evogs_math::Par;
 
 /// The field's two Adam groups and their base rates.
 pub(crate) struct FieldAdam {
@@ -29,9 +30,19 @@ impl FieldAdam {
     pub(crate) fn step(&mut self, field: &mut NeuralField<f32>, g: &[f32], scale: f64) {
         let (gr, mr) = (field.grid_range(), field.mlp_range());
         let p = field.params_mut();
-        self.grid
-            .step(&self.adam, self.grid_lr * scale, &mut p[gr.clone()], &g[gr]);
-        self.mlp
-            .step(&self.adam, self.mlp_lr * scale, &mut p[mr.clone()], &g[mr]);
+        self.grid.step(
+            &self.adam,
+            self.grid_lr * scale,
+            Par::Seq,
+            &mut p[gr.clone()],
+            &g[gr],
+        );
+        self.mlp.step(
+            &self.adam,
+            self.mlp_lr * scale,
+            Par::Seq,
+            &mut p[mr.clone()],
+            &g[mr],
+        );
     }
 }

@@ -200,23 +200,23 @@ mod tests {
     use evogs_math::diff::{GradCheck, central_gradient};
     use evogs_math::rng::SplitMix64;
 
+    /// A HexPlane over the box [−1, 1]³ and the times [−1, 1].
+    fn unit_box(cfg: &HexPlaneConfig) -> HexPlane {
+        let times = TimeMapping::Normalized {
+            t_min: -1.0,
+            t_max: 1.0,
+        };
+        HexPlane::new(cfg, [-1.0; 3], [1.0; 3], times)
+    }
+
     #[test]
     fn gradient_matches_central_differences() {
-        // z and t of more cells than one run of rows: the gather form across run ends.
         let cfg = HexPlaneConfig {
             channels: 2,
             resolution: [3, 4, 10, 11],
             multires: vec![1],
         };
-        let hex = HexPlane::new(
-            &cfg,
-            [-1.0; 3],
-            [1.0; 3],
-            TimeMapping::Normalized {
-                t_min: -1.0,
-                t_max: 1.0,
-            },
-        );
+        let hex = unit_box(&cfg);
         let mut rng = SplitMix64::new(3);
         let mut x: Vec<f64> = (0..hex.n_params()).map(|_| rng.uniform(0.0, 2.0)).collect();
         let w = PlaneRegWeights {
@@ -296,15 +296,7 @@ mod tests {
             resolution: [21, 19, 17, 23],
             multires: vec![1, 2],
         };
-        let hex = HexPlane::new(
-            &cfg,
-            [-1.0; 3],
-            [1.0; 3],
-            TimeMapping::Normalized {
-                t_min: -1.0,
-                t_max: 1.0,
-            },
-        );
+        let hex = unit_box(&cfg);
         let mut rng = SplitMix64::new(5);
         let x: Vec<f32> = (0..hex.n_params())
             .map(|_| <f32 as Real>::from_f64(rng.uniform(0.0, 2.0)))

@@ -102,12 +102,13 @@ impl AdamState {
     }
 
     /// One Adam step of `x` with gradient `g` and learning rate `lr` (with lr = 0 the
-    /// moments are still updated, as PyTorch does), on the calling thread.
+    /// moments are still updated, as PyTorch does), in fixed runs on `par` (see
+    /// [`AdamState::step_units`]).
     ///
     /// # Panics
     /// If the lengths differ.
-    pub fn step(&mut self, adam: &Adam, lr: f64, x: &mut [f32], g: &[f32]) {
-        self.step_units(adam, lr, Par::Seq, x, g, [1, 1], |s, x, g, m, v| {
+    pub fn step(&mut self, adam: &Adam, lr: f64, par: Par, x: &mut [f32], g: &[f32]) {
+        self.step_units(adam, lr, par, x, g, [1, 1], |s, x, g, m, v| {
             s.apply(x.iter_mut().zip(g.iter().copied()), m, v);
         });
     }
@@ -254,7 +255,7 @@ mod tests {
         };
         for _ in 0..2000 {
             let g = [2.0 * x[0], 8.0 * x[1]];
-            s.step(&adam, 0.05, &mut x, &g);
+            s.step(&adam, 0.05, Par::Seq, &mut x, &g);
         }
         assert!(
             x[0].abs() < 1e-2 && x[1].abs() < 1e-2,
@@ -267,7 +268,7 @@ mod tests {
         // Bias correction makes the first step lr·sign(g).
         let mut x = vec![1.0_f32];
         let mut s = AdamState::new(1);
-        s.step(&Adam::default(), 0.1, &mut x, &[0.3]);
+        s.step(&Adam::default(), 0.1, Par::Seq, &mut x, &[0.3]);
         assert!((x[0] - 0.9).abs() < 1e-6, "x = {}", x[0]);
     }
 

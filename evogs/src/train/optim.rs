@@ -365,9 +365,6 @@ impl Optimizer {
             |s: AdamStep, x: &mut [Quat<f32>], g: &[Quat<f32>], m: &mut [f32], v: &mut [f32]| {
                 s.apply(quat_pairs(x, g), m, v);
             };
-        let flat = |s: AdamStep, x: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32]| {
-            s.apply(x.iter_mut().zip(g.iter().copied()), m, v);
-        };
         self.for_each_group(|group, st| {
             if (group.dynamic() && !model.dynamics_active) || (group == Group::ShRest && k == 1) {
                 return;
@@ -394,15 +391,7 @@ impl Optimizer {
                     st.step_units(&adam, rate, par, &mut c.quats, &g.quats, [1, 4], quats);
                 }
                 Group::Opacity => {
-                    st.step_units(
-                        &adam,
-                        rate,
-                        par,
-                        &mut c.opacity_logits,
-                        &g.opacity_logits,
-                        [1, 1],
-                        flat,
-                    );
+                    st.step(&adam, rate, par, &mut c.opacity_logits, &g.opacity_logits);
                 }
                 // The SH coefficients of a Gaussian are k items of 3 values: the first is the
                 // DC group's, the other k − 1 the rest's.
@@ -460,14 +449,14 @@ impl Optimizer {
                         &mut model.field.params_mut()[gr.clone()],
                         &grad.field[gr.clone()],
                     );
-                    st.step_units(&adam, rate, par, x, g, [1, 1], flat);
+                    st.step(&adam, rate, par, x, g);
                 }
                 Group::Mlp => {
                     let (x, g) = (
                         &mut model.field.params_mut()[mr.clone()],
                         &grad.field[mr.clone()],
                     );
-                    st.step_units(&adam, rate, par, x, g, [1, 1], flat);
+                    st.step(&adam, rate, par, x, g);
                 }
                 Group::WaypointGrid | Group::WaypointMlp => {
                     let f = model.waypoint_field.as_mut().expect(NO_WAYPOINT);
@@ -477,7 +466,7 @@ impl Optimizer {
                         f.mlp_range()
                     };
                     let (x, g) = (&mut f.params_mut()[r.clone()], &grad.waypoint_field[r]);
-                    st.step_units(&adam, rate, par, x, g, [1, 1], flat);
+                    st.step(&adam, rate, par, x, g);
                 }
             }
         });
