@@ -101,7 +101,8 @@ pub fn log_quat<T: Real>(q: Quat<T>) -> Vec3<T> {
 
 /// The unit quaternion of a rotation matrix (Shepperd's method: the largest of
 /// w², x², y², z² is taken from the trace or the diagonal, the others from off-diagonal
-/// sums and differences), stable at every angle including π.
+/// sums and differences), stable at every angle including π. Of the two quaternions of the
+/// rotation it returns the one with `w ≥ 0`.
 #[must_use]
 pub fn quat_from_matrix<T: Real>(r: Mat3<T>) -> Quat<T> {
     let m = r.m;
@@ -344,5 +345,63 @@ mod tests {
         let q = exp_quat(Vec3::new(0.2, 0.1, -0.4));
         let d = log_quat(q.scale(3.5)) - log_quat(q);
         assert!(d.norm() < 1e-15, "scale invariance");
+    }
+    #[test]
+    fn half_turns_about_each_axis_take_the_branch_of_their_axis() {
+        // A half turn about axis k has w = 0 and only component k non-zero: every other
+        // pivot of Shepperd's method is 0, so a wrong branch divides by zero. The result
+        // is exact, and w = 0 is not folded (folding would negate the axis).
+        let axes = [[1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0]];
+        for (k, d) in axes.iter().enumerate() {
+            let mut r = Mat3::<f64>::zero();
+            for (i, &v) in d.iter().enumerate() {
+                r.m[i][i] = v;
+            }
+            let q = quat_from_matrix(r);
+            let mut want = [0.0; 4];
+            want[k + 1] = 1.0;
+            assert_eq!(
+                [q.w, q.x, q.y, q.z].map(f64::to_bits),
+                want.map(f64::to_bits),
+                "half turn about axis {k}"
+            );
+        }
+    }
+
+    #[test]
+    fn quat_from_matrix_returns_the_quaternion_with_w_at_least_zero() {
+        // Angles near ±π about each axis go through the x, y and z branches, whose w
+        // comes out negative for a negative angle before the fold; small angles go
+        // through the trace branch.
+        for axis in 0..3 {
+            for angle in [3.0, -3.0, 0.4, -0.4, 2.0, -2.0] {
+                let mut phi = Vec3::<f64>::zero();
+                phi[axis] = angle;
+                let q = quat_from_matrix(exp_matrix(phi));
+                let half = 0.5 * angle;
+                let want = [half.cos(), half.sin()];
+                assert!(q.w >= 0.0, "w ≥ 0 for {angle} about {axis}");
+                assert!(
+                    (q.w - want[0]).abs() < 1e-15 && (q.vec()[axis] - want[1]).abs() < 1e-15,
+                    "{angle} about {axis}: {q:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn so3_from_matrix_and_angle_to_measure_what_they_say() {
+        let phi = Vec3::new(0.3, -0.2, 0.9);
+        let r = So3::from_matrix(exp_matrix(phi));
+        assert!(
+            (r.log() - phi).norm() < 1e-15,
+            "from_matrix keeps the rotation"
+        );
+        // Two turns about one axis differ by the difference of their angles, whichever
+        // comes first.
+        let a = So3::exp(Vec3::new(0.0, 0.0, 0.25));
+        let b = So3::exp(Vec3::new(0.0, 0.0, 1.0));
+        assert!((a.angle_to(b) - 0.75).abs() < 1e-15, "{}", a.angle_to(b));
+        assert!((b.angle_to(a) - 0.75).abs() < 1e-15, "{}", b.angle_to(a));
     }
 }
