@@ -34,7 +34,7 @@ pub use hop::{HopLaw, HopRender, HopSettings, HopStart};
 pub use render::render_options;
 
 use crate::field::{Gemm, NeuralField};
-use evogs_math::{Quat, Vec3};
+use evogs_math::{Par, Quat, Vec3};
 use evogs_ode::Method;
 use evogs_splat::{Splats, SplatsGrad};
 
@@ -247,14 +247,15 @@ impl<T: Gemm> Model<T> {
 }
 
 impl<T: Gemm> ModelGrad<T> {
-    /// Sets every entry to zero.
-    pub fn fill_zero(&mut self) {
+    /// Sets every entry to zero; `par` zeroes the field's parameters (most of the
+    /// entries) in runs on the pool.
+    pub fn fill_zero(&mut self, par: Par) {
         self.canonical.fill_zero();
         for a in &mut self.anchors {
             a.fill_zero();
         }
-        self.field.fill(T::ZERO);
-        self.waypoint_field.fill(T::ZERO);
+        zero_runs(&mut self.field, par);
+        zero_runs(&mut self.waypoint_field, par);
     }
 
     /// The gradient slots of anchor `k` (0 = canonical).
@@ -268,17 +269,107 @@ impl<T: Gemm> ModelGrad<T> {
         }
     }
 
-    /// `true` if every entry is finite.
+    /// `true` if every entry is finite; `par` checks the colours and the field's
+    /// parameters (most of the entries) in runs on the pool.
     #[must_use]
-    pub fn is_finite(&self) -> bool {
+    pub fn is_finite(&self, par: Par) -> bool {
         let c = &self.canonical;
         c.means.iter().all(|v| v.is_finite())
             && c.log_scales.iter().all(|v| v.is_finite())
             && c.quats.iter().all(|q| q.is_finite())
             && c.opacity_logits.iter().all(|v| v.is_finite())
-            && c.sh.iter().flatten().all(|v| v.is_finite())
+            && all_finite(c.sh.as_flattened(), par)
             && self.anchors.iter().all(AnchorState::is_finite)
-            && self.field.iter().all(|v| v.is_finite())
-            && self.waypoint_field.iter().all(|v| v.is_finite())
+            && all_finite(&self.field, par)
+            && all_finite(&self.waypoint_field, par)
+    }
+}
+
+/// Values per run of [`all_finite`] and [`zero_runs`]: a fixed length, so the work splits
+/// the same way on any thread count.
+const RUN: usize = 1 << 15;
+
+/// `true` if every value is finite. Each run folds its values without stopping early (a
+/// loop the compiler vectorises); `Par::Rayon` checks the runs in parallel.
+fn all_finite<T: Gemm>(xs: &[T], par: Par) -> bool {
+    let run = |c: &[T]| c.iter().fold(true, |ok, v| ok & v.is_finite());
+    match par {
+        Par::Seq => xs.chunks(RUN).all(run),
+        #[cfg(feature = "rayon")]
+        Par::Rayon => {
+            use rayon::prelude::*;
+            xs.par_chunks(RUN).all(run)
+        }
+    }
+}
+
+/// Sets every value to zero, in runs on the pool for `Par::Rayon`.
+fn zero_runs<T: Gemm>(xs: &mut [T], par: Par) {
+    match par {
+        Par::Seq => xs.fill(T::ZERO),
+        #[cfg(feature = "rayon")]
+        Par::Rayon => {
+            use rayon::prelude::*;
+            xs.par_chunks_mut(RUN).for_each(|c| c.fill(T::ZERO));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A gradient of three Gaussians (SH degree 1) and a field of two runs and a bit.
+    fn grad() -> ModelGrad<f32> {
+        ModelGrad {
+            canonical: SplatsGrad::zeros(3, 1),
+            anchors: Vec::new(),
+            field: vec![0.0; 2 * RUN + 7],
+            waypoint_field: vec![0.0; 5],
+        }
+    }
+
+    #[test]
+    fn a_single_non_finite_entry_anywhere_is_found_on_any_par() {
+        let pars = [Par::Seq, Par::best()];
+        for par in pars {
+            assert!(grad().is_finite(par), "zeros are finite");
+        }
+        let n = 2 * RUN + 7;
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for at in [0, RUN - 1, RUN, 2 * RUN, n - 1] {
+                let mut g = grad();
+                g.field[at] = bad;
+                for par in pars {
+                    assert!(!g.is_finite(par), "{bad} at field[{at}] with {par:?}");
+                }
+            }
+            let mut g = grad();
+            g.waypoint_field[4] = bad;
+            assert!(pars.iter().all(|&p| !g.is_finite(p)), "waypoint field");
+            let mut g = grad();
+            g.canonical.sh[3][2] = bad;
+            assert!(pars.iter().all(|&p| !g.is_finite(p)), "colours");
+        }
+    }
+
+    #[test]
+    fn fill_zero_clears_every_run_on_any_par() {
+        for par in [Par::Seq, Par::best()] {
+            let mut g = grad();
+            g.field
+                .iter_mut()
+                .enumerate()
+                .for_each(|(i, v)| *v = i as f32);
+            g.waypoint_field.fill(-1.0);
+            g.canonical.means[2] = Vec3::new(1.0, 2.0, 3.0);
+            g.fill_zero(par);
+            assert!(g.field.iter().all(|v| v.to_bits() == 0), "field, {par:?}");
+            assert!(
+                g.waypoint_field.iter().all(|v| v.to_bits() == 0),
+                "waypoints"
+            );
+            assert_eq!(g.canonical.means[2].x.to_bits(), 0, "canonical");
+        }
     }
 }

@@ -231,7 +231,7 @@ pub fn shared_batch_loss_and_grad(
     shares.resize_with(part.batch, ViewShare::default);
     for sh in shares.iter_mut() {
         match &mut sh.grad {
-            Some(g) if g.same_shape(grad) => g.fill_zero(),
+            Some(g) if g.same_shape(grad) => g.fill_zero(opts.par),
             _ => sh.grad = Some(model.zero_grad()),
         }
     }

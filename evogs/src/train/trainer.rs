@@ -470,7 +470,7 @@ impl Trainer {
         let opts = render_options(self.cfg.data.background, sh, self.par);
         let mut grad = match self.grad.take() {
             Some(mut g) if g.canonical.len() == self.model.len() => {
-                g.fill_zero();
+                g.fill_zero(self.par);
                 g
             }
             _ => self.model.zero_grad(),
@@ -510,7 +510,7 @@ impl Trainer {
         if !losses.total.is_finite() {
             return Err(non_finite("loss"));
         }
-        if !grad.is_finite() {
+        if !grad.is_finite(self.par) {
             return Err(non_finite("gradient"));
         }
         self.state.iteration = it;
