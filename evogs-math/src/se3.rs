@@ -376,6 +376,14 @@ mod tests {
     }
 
     #[test]
+    fn renormalize_keeps_the_transform() {
+        let x = sample();
+        let y = x.renormalize();
+        assert!((y.log() - x.log()).norm() < 1e-15, "same transform");
+        assert!((y.quat().norm() - 1.0).abs() < 1e-15, "unit quaternion");
+    }
+
+    #[test]
     fn matrix_round_trip_and_hat_vee() {
         let x = sample();
         let back = Se3::from_matrix(&x.to_matrix());
