@@ -239,6 +239,44 @@ mod tests {
     }
 
     #[test]
+    fn sym2_operations_match_their_formulas_on_small_integers() {
+        let s = Sym2::<f64>::new(3.0, 2.0, 5.0);
+        assert_eq!(s.det(), 11.0, "3·5 − 2²");
+        // Exactly singular (det 0): no inverse, even though 1/0 is a number in floating
+        // point.
+        assert!(Sym2::<f64>::new(2.0, 2.0, 2.0).inverse().is_none(), "det 0");
+        let inv = Sym2::<f64>::new(2.0, 1.0, 1.0).inverse().expect("det 1");
+        assert_eq!(inv, Sym2::new(1.0, -1.0, 2.0), "the adjugate over det 1");
+        let g = crate::Mat2::from_rows([[1.0, 2.0], [3.0, 4.0]]);
+        assert_eq!(
+            Sym2::from_full_adjoint(g),
+            Sym2::new(1.0, 5.0, 4.0),
+            "off-diagonals summed"
+        );
+        let full = Sym2::<f64>::new(1.0, 6.0, 4.0).to_full_adjoint();
+        assert_eq!(full.m, [[1.0, 3.0], [3.0, 4.0]], "off-diagonals halved");
+    }
+
+    #[test]
+    fn sym3_symmetric_part_and_congruence_match_their_formulas_on_small_integers() {
+        let m = Mat3::<f64>::from_rows([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]]);
+        assert_eq!(
+            Sym3::from_mat_sym(m),
+            Sym3::new(1.0, 3.0, 5.0, 5.0, 7.0, 9.0),
+            "(M + Mᵀ)/2"
+        );
+        // A Σ Aᵀ with A a shear: entry by entry from the product written out.
+        let s = Sym3::<f64>::new(1.0, 2.0, 3.0, 4.0, 5.0, 6.0);
+        let a = Mat3::from_rows([[1.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 2.0]]);
+        // A Σ = [[3, 6, 8], [2, 4, 5], [6, 10, 12]]; (A Σ) Aᵀ:
+        assert_eq!(
+            s.congruence(a),
+            Sym3::new(9.0, 6.0, 16.0, 4.0, 10.0, 24.0),
+            "A Σ Aᵀ"
+        );
+    }
+
+    #[test]
     fn sym2_inverse() {
         let s = Sym2::<f64>::new(2.0, 0.5, 1.0);
         let i = s.inverse().expect("positive definite");
