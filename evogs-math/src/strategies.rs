@@ -71,3 +71,44 @@ pub fn se3_perturbation(size: f64) -> impl Strategy<Value = Vec6<f64>> {
         Vec6::new(a * (c * size), b * (s * size))
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::TestRunner;
+
+    /// `count` draws of `s` from a fixed-seed runner.
+    fn draws<S: Strategy>(s: &S, count: usize) -> Vec<S::Value> {
+        let mut runner = TestRunner::deterministic();
+        (0..count)
+            .map(|_| s.new_tree(&mut runner).expect("a draw").current())
+            .collect()
+    }
+
+    #[test]
+    fn vec3_fills_the_whole_cube_in_every_component() {
+        let vs = draws(&vec3(2.0), 400);
+        for k in 0..3 {
+            let c: Vec<f64> = vs.iter().map(|v| [v.x, v.y, v.z][k]).collect();
+            assert!(
+                c.iter().all(|x| (-2.0..=2.0).contains(x)),
+                "component {k} in [-2, 2]"
+            );
+            let (lo, hi) = c
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+            assert!(lo < -1.5 && hi > 1.5, "component {k} spans [{lo}, {hi}]");
+        }
+    }
+
+    #[test]
+    fn unit_vectors_and_quaternions_have_norm_one() {
+        for v in draws(&unit_vec3(), 200) {
+            assert!((v.norm() - 1.0).abs() < 1e-12, "|v| = {}", v.norm());
+        }
+        for q in draws(&unit_quat(), 200) {
+            assert!((q.norm() - 1.0).abs() < 1e-12, "|q| = {}", q.norm());
+        }
+    }
+}
