@@ -310,6 +310,66 @@ mod tests {
     }
 
     #[test]
+    fn coefficient_counts_are_the_squares() {
+        let counts: Vec<usize> = (0..=3).map(sh_coeff_count).collect();
+        assert_eq!(counts, [1, 4, 9, 16]);
+    }
+
+    #[test]
+    fn basis_has_the_signs_and_norms_of_the_closed_forms() {
+        // The real spherical harmonics of 3D Gaussian splatting (Condon–Shortley phase
+        // included), each written from its closed form, not from the constant tables: the
+        // orthonormality test below cannot see a flipped sign.
+        use core::f64::consts::PI;
+        let closed = |d: Vec3<f64>| -> [f64; 16] {
+            let (x, y, z) = (d.x, d.y, d.z);
+            let c1 = (3.0 / (4.0 * PI)).sqrt();
+            let (a, b) = ((15.0 / PI).sqrt(), (5.0 / PI).sqrt());
+            let (e, f, g) = (
+                (35.0 / (2.0 * PI)).sqrt(),
+                (105.0 / PI).sqrt(),
+                (21.0 / (2.0 * PI)).sqrt(),
+            );
+            let h = (7.0 / PI).sqrt();
+            let (xx, yy, zz) = (x * x, y * y, z * z);
+            [
+                0.5 / PI.sqrt(),
+                -c1 * y,
+                c1 * z,
+                -c1 * x,
+                0.5 * a * x * y,
+                -0.5 * a * y * z,
+                0.25 * b * (2.0 * zz - xx - yy),
+                -0.5 * a * x * z,
+                0.25 * a * (xx - yy),
+                -0.25 * e * y * (3.0 * xx - yy),
+                0.5 * f * x * y * z,
+                -0.25 * g * y * (4.0 * zz - xx - yy),
+                0.25 * h * z * (2.0 * zz - 3.0 * xx - 3.0 * yy),
+                -0.25 * g * x * (4.0 * zz - xx - yy),
+                0.25 * f * z * (xx - yy),
+                -0.25 * e * x * (xx - 3.0 * yy),
+            ]
+        };
+        for raw in [
+            [0.48, 0.6, 0.64],
+            [-0.36, 0.48, -0.8],
+            [0.6, -0.64, 0.48],
+            [0.0, -0.6, 0.8],
+        ] {
+            let d = Vec3::new(raw[0], raw[1], raw[2]);
+            let mut got = [0.0; MAX_SH_COEFFS];
+            sh_basis(3, d, &mut got);
+            for (k, (g, w)) in got.iter().zip(closed(d)).enumerate() {
+                assert!(
+                    (g - w).abs() <= 1e-14,
+                    "Y_{k}({raw:?}) = {g}, closed form {w}"
+                );
+            }
+        }
+    }
+
+    #[test]
     fn basis_is_orthonormal_on_the_sphere() {
         // Monte Carlo-free check: quadrature on a Fibonacci sphere of 20000 points.
         let n = 20_000;

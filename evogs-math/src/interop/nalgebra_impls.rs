@@ -76,6 +76,14 @@ mod tests {
 
     #[test]
     fn round_trips() {
+        let v2 = crate::Vec2::new(0.25_f64, -1.5);
+        let n2 = nalgebra::Vector2::from(v2);
+        assert_eq!(
+            (n2[0], n2[1]),
+            (0.25, -1.5),
+            "vec2 to nalgebra, component by component"
+        );
+        assert_eq!(crate::Vec2::from(n2), v2, "vec2 round trip");
         let v = Vec3::new(0.25_f64, -1.5, 3.0);
         assert_eq!(Vec3::from(nalgebra::Vector3::from(v)), v, "vec3 round trip");
         let q = Quat::new(0.8_f32, 0.1, -0.5, 0.3);
