@@ -82,3 +82,64 @@ pub fn background() -> impl Strategy<Value = [f64; 3]> {
 pub fn permutation(n: usize) -> impl Strategy<Value = Vec<usize>> {
     Just((0..n).collect::<Vec<usize>>()).prop_shuffle()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::TestRunner;
+
+    /// `count` draws of `s` from a fixed-seed runner.
+    fn draws<S: Strategy>(s: &S, count: usize) -> Vec<S::Value> {
+        let mut runner = TestRunner::deterministic();
+        (0..count)
+            .map(|_| s.new_tree(&mut runner).expect("a draw").current())
+            .collect()
+    }
+
+    #[test]
+    fn scenes_span_their_documented_scale_and_opacity_ranges() {
+        let scenes = draws(&scene(20..21, 16), 300);
+        let (mut widest_scale, mut widest_opacity) = (0.0_f64, 0.0_f64);
+        let mut narrowest_spread = f64::MAX;
+        for (s, _) in &scenes {
+            let scales: Vec<f64> = s
+                .log_scales
+                .iter()
+                .flat_map(|l| [l.x.exp(), l.y.exp(), l.z.exp()])
+                .collect();
+            let (lo, hi) = scales
+                .iter()
+                .fold((f64::MAX, 0.0_f64), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+            assert!(
+                lo >= 0.01 * (1.0 - 1e-12) && hi <= 0.2 * (1.0 + 1e-12),
+                "scales in [{lo}, {hi}]"
+            );
+            widest_scale = widest_scale.max(hi);
+            narrowest_spread = narrowest_spread.min(hi / lo);
+            for &logit in &s.opacity_logits {
+                let o = 1.0 / (1.0 + (-logit).exp());
+                assert!((0.05 - 1e-12..=0.99 + 1e-12).contains(&o), "opacity {o}");
+                widest_opacity = widest_opacity.max(o);
+            }
+        }
+        // The upper ends are reached, and a scene's scale range can be narrow (s_span near
+        // 0) as well as wide.
+        assert!(widest_scale > 0.17, "largest scale {widest_scale}");
+        assert!(widest_opacity > 0.92, "largest opacity {widest_opacity}");
+        assert!(
+            narrowest_spread < 1.3,
+            "narrowest scale spread ×{narrowest_spread}"
+        );
+    }
+
+    #[test]
+    fn cameras_sit_on_their_sphere_away_from_the_up_axis() {
+        for cam in draws(&camera(32, 24), 500) {
+            let c = cam.center();
+            let r = c.norm();
+            assert!((3.0 - 1e-9..=5.0 + 1e-9).contains(&r), "distance {r}");
+            assert!(c.y.abs() < 0.9 * r, "centre {c:?} too close to the up axis");
+        }
+    }
+}
