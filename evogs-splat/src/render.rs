@@ -257,3 +257,52 @@ pub fn render_tiled_vjp_projection<T: Real>(
         &mut grad.splats,
     );
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gaussians::benchmark_scene;
+
+    /// `s` with its colours cut to SH degree `degree` (each Gaussian's first coefficients).
+    fn with_degree(s: &Splats<f64>, degree: usize) -> Splats<f64> {
+        let mut out = Splats::new(degree);
+        for i in 0..s.len() {
+            let (m, l, q, o) = (s.means[i], s.log_scales[i], s.quats[i], s.opacity_logits[i]);
+            out.push(m, l, q, o, s.sh_coeffs(i));
+        }
+        out
+    }
+
+    #[test]
+    fn a_gradient_reused_across_counts_and_degrees_is_the_fresh_one() {
+        let opts = RenderOptions::default();
+        let mut rast = TiledRasterizer::new();
+        let (big, cam) = benchmark_scene::<f64>(40, 12, 2);
+        let (small, _) = benchmark_scene::<f64>(25, 12, 3);
+        let low = with_degree(&big, 1);
+        let d_rgb: Vec<f64> = (0..12 * 12 * 3)
+            .map(|k: i32| f64::from(k % 7) * 0.25 - 0.75)
+            .collect();
+        let d = PixelGrad {
+            rgb: &d_rgb,
+            alpha: None,
+            depth: None,
+        };
+        let fwd = render_tiled(&big, &cam, &opts, &mut rast);
+        let mut reused = render_tiled_vjp(&big, &cam, &opts, &mut rast, &fwd, &d);
+        // Another count at the same degree, back, then the same count at another degree,
+        // and back: the buffer is reused only when both agree.
+        for (name, s) in [
+            ("fewer", &small),
+            ("more", &big),
+            ("degree 1", &low),
+            ("degree 3", &big),
+        ] {
+            let fwd = render_tiled(s, &cam, &opts, &mut rast);
+            let fresh = render_tiled_vjp(s, &cam, &opts, &mut rast, &fwd, &d);
+            render_tiled_vjp_into(s, &cam, &opts, &mut rast, &fwd, &d, &mut reused);
+            assert!(reused.splats == fresh.splats, "{name}: Gaussian gradients");
+            assert!(reused.camera == fresh.camera, "{name}: camera gradient");
+        }
+    }
+}
