@@ -138,3 +138,20 @@ impl<T: Real> Image<T> {
         self.width == other.width && self.height == other.height
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Image;
+
+    #[test]
+    fn from_vec_and_into_vec_hand_back_the_same_values() {
+        let data: Vec<f64> = (0..2 * 3 * 3).map(f64::from).collect();
+        let img = Image::from_vec(2, 3, data.clone()).expect("2 × 3 × 3 values");
+        assert_eq!(
+            img.get(1, 2).map(f64::to_bits),
+            [15.0, 16.0, 17.0].map(f64::to_bits),
+            "row-major RGB"
+        );
+        assert_eq!(img.into_vec(), data, "the values, in order");
+    }
+}
