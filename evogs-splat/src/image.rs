@@ -154,4 +154,13 @@ mod tests {
         );
         assert_eq!(img.into_vec(), data, "the values, in order");
     }
+
+    #[test]
+    fn same_size_needs_both_sides_equal() {
+        let a = Image::<f32>::new(4, 3);
+        assert!(a.same_size(&Image::new(4, 3)), "4 × 3 and 4 × 3");
+        assert!(!a.same_size(&Image::new(4, 2)), "another height");
+        assert!(!a.same_size(&Image::new(3, 3)), "another width");
+        assert!(!a.same_size(&Image::new(3, 4)), "transposed");
+    }
 }
