@@ -72,23 +72,34 @@ pub fn se3_perturbation(size: f64) -> impl Strategy<Value = Vec6<f64>> {
     })
 }
 
+/// `count` values of `strategy` from proptest's fixed-seed runner (`TestRunner::deterministic`):
+/// the same values on every run, for tests that look at a strategy's spread rather than at
+/// one property.
+///
+/// # Panics
+/// If the strategy cannot produce a value (its filters reject too many draws).
+///
+/// ```
+/// use evogs_math::strategies::{sample, vec3};
+/// let vs = sample(&vec3(1.0), 10);
+/// assert_eq!(vs.len(), 10);
+/// assert_eq!(vs, sample(&vec3(1.0), 10), "the same values every time");
+/// ```
+pub fn sample<S: Strategy>(strategy: &S, count: usize) -> alloc::vec::Vec<S::Value> {
+    use proptest::strategy::ValueTree;
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    (0..count)
+        .map(|_| strategy.new_tree(&mut runner).expect("a draw").current())
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use proptest::strategy::ValueTree;
-    use proptest::test_runner::TestRunner;
-
-    /// `count` draws of `s` from a fixed-seed runner.
-    fn draws<S: Strategy>(s: &S, count: usize) -> Vec<S::Value> {
-        let mut runner = TestRunner::deterministic();
-        (0..count)
-            .map(|_| s.new_tree(&mut runner).expect("a draw").current())
-            .collect()
-    }
 
     #[test]
     fn vec3_fills_the_whole_cube_in_every_component() {
-        let vs = draws(&vec3(2.0), 400);
+        let vs = sample(&vec3(2.0), 400);
         for k in 0..3 {
             let c: Vec<f64> = vs.iter().map(|v| [v.x, v.y, v.z][k]).collect();
             assert!(
@@ -104,10 +115,10 @@ mod tests {
 
     #[test]
     fn unit_vectors_and_quaternions_have_norm_one() {
-        for v in draws(&unit_vec3(), 200) {
+        for v in sample(&unit_vec3(), 200) {
             assert!((v.norm() - 1.0).abs() < 1e-12, "|v| = {}", v.norm());
         }
-        for q in draws(&unit_quat(), 200) {
+        for q in sample(&unit_quat(), 200) {
             assert!((q.norm() - 1.0).abs() < 1e-12, "|q| = {}", q.norm());
         }
     }
@@ -116,7 +127,7 @@ mod tests {
     fn unit_quaternions_reach_every_corner_of_the_sphere() {
         // Only near-zero raw draws are filtered out: each component is at times the largest
         // by far, with either sign, and at times close to zero.
-        let qs = draws(&unit_quat(), 2000);
+        let qs = sample(&unit_quat(), 2000);
         for k in 0..4 {
             let c = |q: &Quat<f64>| [q.w, q.x, q.y, q.z][k];
             for sign in [1.0, -1.0] {

@@ -86,20 +86,11 @@ pub fn permutation(n: usize) -> impl Strategy<Value = Vec<usize>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use proptest::strategy::ValueTree;
-    use proptest::test_runner::TestRunner;
-
-    /// `count` draws of `s` from a fixed-seed runner.
-    fn draws<S: Strategy>(s: &S, count: usize) -> Vec<S::Value> {
-        let mut runner = TestRunner::deterministic();
-        (0..count)
-            .map(|_| s.new_tree(&mut runner).expect("a draw").current())
-            .collect()
-    }
+    use evogs_math::strategies::sample;
 
     #[test]
     fn scenes_span_their_documented_scale_and_opacity_ranges() {
-        let scenes = draws(&scene(20..21, 16), 300);
+        let scenes = sample(&scene(20..21, 16), 300);
         let (mut widest_scale, mut widest_opacity) = (0.0_f64, 0.0_f64);
         let mut narrowest_spread = f64::MAX;
         for (s, _) in &scenes {
@@ -135,7 +126,7 @@ mod tests {
 
     #[test]
     fn cameras_sit_on_their_sphere_away_from_the_up_axis() {
-        for cam in draws(&camera(32, 24), 500) {
+        for cam in sample(&camera(32, 24), 500) {
             let c = cam.center();
             let r = c.norm();
             assert!((3.0 - 1e-9..=5.0 + 1e-9).contains(&r), "distance {r}");
