@@ -38,16 +38,30 @@ fn a_folder_being_written_refuses_other_writers_and_a_killed_holder_blocks_nothi
         .stderr(Stdio::piped())
         .spawn()
         .expect("evogs starts");
-    let stderr = holder.stderr.take().expect("stderr");
-    // Wait until it trains (its folder is prepared and locked).
-    for line in BufReader::new(stderr).lines() {
+    // Its stderr stays open (read no further) until it is killed, so that it never writes
+    // into a closed pipe.
+    let mut lines = BufReader::new(holder.stderr.take().expect("stderr")).lines();
+    // Wait until it trains (its folder is prepared and locked), then stop it there
+    // (SIGSTOP): a stopped holder keeps its lock however slow the refused commands are,
+    // where a running one might finish its 300 iterations and release it first.
+    for line in lines.by_ref() {
         if line.expect("utf-8").starts_with("train ")
             && run.join("checkpoint.safetensors").is_file()
         {
             break;
         }
     }
-    let pid = format!("process {}", holder.id());
+    let id = holder.id().to_string();
+    let stopped = Command::new("kill")
+        .args(["-STOP", &id])
+        .status()
+        .expect("kill runs");
+    assert!(stopped.success(), "SIGSTOP sent");
+    assert!(
+        holder.try_wait().expect("status").is_none(),
+        "the holder is still training when the others try"
+    );
+    let pid = format!("process {id}");
     let refused = |mut c: Command, what: &str| {
         let o = c.output().expect("evogs runs");
         let err = String::from_utf8_lossy(&o.stderr).into_owned();
@@ -79,6 +93,7 @@ fn a_folder_being_written_refuses_other_writers_and_a_killed_holder_blocks_nothi
     refused(export, "export --times into the run folder");
     holder.kill().expect("SIGKILL");
     holder.wait().expect("ended");
+    drop(lines);
     assert!(
         run.join(".evogs.lock").is_file(),
         "the stale lock file stays"

@@ -21,7 +21,7 @@ impl Reporter for InterruptAt {
     fn start(&mut self, _: &str, _: u64) {}
     fn progress(&mut self, done: u64, _: &str) {
         if done == self.0 {
-            interrupt::request();
+            interrupt::request_on_this_thread();
         }
     }
     fn finish(&mut self) {}
