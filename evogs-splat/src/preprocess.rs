@@ -436,3 +436,147 @@ pub fn preprocess_vjp<T: Real>(
     }
     cam
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gaussians::benchmark_scene;
+
+    /// Gaussian `i` of `s`, alone.
+    fn alone(s: &Splats<f64>, i: usize) -> Splats<f64> {
+        let mut one = Splats::new(s.sh_degree);
+        one.push(
+            s.means[i],
+            s.log_scales[i],
+            s.quats[i],
+            s.opacity_logits[i],
+            s.sh_coeffs(i),
+        );
+        one
+    }
+
+    fn bits3(v: [f64; 3]) -> [u64; 3] {
+        v.map(f64::to_bits)
+    }
+
+    /// Three whole chunks and a partial fourth, every fifth Gaussian far out of view.
+    fn chunked_scene() -> (Splats<f64>, PinholeCamera<f64>) {
+        let n = 3 * CHUNK + 17;
+        let (mut s, cam) = benchmark_scene::<f64>(n, 64, 5);
+        for i in (0..n).step_by(5) {
+            s.means[i].x += 50.0;
+        }
+        (s, cam)
+    }
+
+    #[test]
+    fn every_chunk_holds_its_own_gaussians() {
+        // Sequential and parallel: each Gaussian's entries are those it gets when
+        // preprocessed alone.
+        let (s, cam) = chunked_scene();
+        let n = s.len();
+        for par in [Par::Seq, Par::best()] {
+            let opts = RenderOptions {
+                par,
+                ..RenderOptions::default()
+            };
+            let all = preprocess(&s, &cam, &opts);
+            for (k, chunk) in all.valid.chunks(CHUNK).enumerate() {
+                assert!(
+                    chunk.iter().any(|&v| v) && chunk.iter().any(|&v| !v),
+                    "chunk {k} holds kept and culled Gaussians"
+                );
+            }
+            for i in 0..n {
+                let one = preprocess(&alone(&s, i), &cam, &opts);
+                assert_eq!(all.means2d[i], one.means2d[0], "mean of {i}");
+                assert_eq!(bits3(all.conics[i]), bits3(one.conics[0]), "conic of {i}");
+                assert_eq!(bits3(all.colors[i]), bits3(one.colors[0]), "colour of {i}");
+                assert_eq!(
+                    [all.opacities[i], all.depths[i], all.compensations[i]].map(f64::to_bits),
+                    [one.opacities[0], one.depths[0], one.compensations[0]].map(f64::to_bits),
+                    "opacity, depth and compensation of {i}"
+                );
+                assert_eq!(
+                    (all.radii[i], all.valid[i]),
+                    (one.radii[0], one.valid[0]),
+                    "radii and validity of {i}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn every_chunk_of_the_vjp_holds_its_own_gaussians() {
+        // Each Gaussian's parameter gradient is the one it gets alone; the camera gradient
+        // is the sum of theirs (up to the order of the additions).
+        let (s, cam) = chunked_scene();
+        let n = s.len();
+        let mut rng = evogs_math::rng::SplitMix64::new(9);
+        let mut d = RasterInputGrad::zeros(n);
+        for i in 0..n {
+            d.means2d[i] = Vec2::new(rng.normal(), rng.normal());
+            d.conics[i] = [rng.normal(), rng.normal(), rng.normal()];
+            d.colors[i] = [rng.normal(), rng.normal(), rng.normal()];
+            d.opacities[i] = rng.normal();
+            d.depths[i] = rng.normal();
+        }
+        for par in [Par::Seq, Par::best()] {
+            let opts = RenderOptions {
+                par,
+                mode: RasterMode::Antialiased,
+                ..RenderOptions::default()
+            };
+            let pre = preprocess(&s, &cam, &opts);
+            let mut grad = s.zeros_like();
+            let cam_grad = preprocess_vjp(&s, &cam, &opts, &pre, &d, &mut grad);
+            let mut cam_sum = Vec3::zero();
+            for i in 0..n {
+                let one = alone(&s, i);
+                let pre1 = preprocess(&one, &cam, &opts);
+                let mut d1 = RasterInputGrad::zeros(1);
+                d1.means2d[0] = d.means2d[i];
+                d1.conics[0] = d.conics[i];
+                d1.colors[0] = d.colors[i];
+                d1.opacities[0] = d.opacities[i];
+                d1.depths[0] = d.depths[i];
+                let mut g1 = one.zeros_like();
+                cam_sum += preprocess_vjp(&one, &cam, &opts, &pre1, &d1, &mut g1).translation;
+                assert_eq!(
+                    (grad.means[i], grad.log_scales[i], grad.quats[i]),
+                    (g1.means[0], g1.log_scales[0], g1.quats[0]),
+                    "mean, scale and rotation gradients of {i}"
+                );
+                assert_eq!(
+                    grad.opacity_logits[i].to_bits(),
+                    g1.opacity_logits[0].to_bits(),
+                    "opacity gradient of {i}"
+                );
+                assert!(
+                    grad.sh_coeffs(i)
+                        .iter()
+                        .zip(g1.sh_coeffs(0))
+                        .all(|(a, b)| bits3(*a) == bits3(*b)),
+                    "SH gradient of {i}"
+                );
+            }
+            let err = (cam_grad.translation - cam_sum).norm();
+            assert!(
+                err <= 1e-12 * cam_sum.norm() && cam_sum.norm() > 0.0,
+                "camera gradient: {err}"
+            );
+        }
+    }
+
+    #[test]
+    fn input_gradients_have_the_length_they_are_given_and_reset_to_zero() {
+        let mut g = RasterInputGrad::<f64>::zeros(0);
+        assert!(g.is_empty(), "no Gaussians");
+        g.reset(3);
+        assert!(!g.is_empty() && g.len() == 3, "three Gaussians");
+        g.means2d[1] = Vec2::new(1.0, 2.0);
+        g.opacities[2] = 4.0;
+        g.reset(2);
+        assert_eq!(g, RasterInputGrad::zeros(2), "two zero Gaussians");
+    }
+}
