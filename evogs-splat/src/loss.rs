@@ -249,3 +249,30 @@ pub fn photometric_loss<T: Real>(
         ssim,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pair() -> (Image<f64>, Image<f64>) {
+        let a = Image::from_vec(2, 1, vec![0.1, 0.5, 0.9, 0.3, 0.7, 0.2]).expect("image");
+        let b = Image::from_vec(2, 1, vec![0.2, 0.4, 0.6, 0.6, 0.5, 0.4]).expect("image");
+        (a, b)
+    }
+
+    #[test]
+    #[should_panic(expected = "gradient image is 1x1, input is 2x1")]
+    fn l1_refuses_a_gradient_image_of_another_size() {
+        // Without the check the fused loop would stop at the shorter image and leave part
+        // of the gradient unwritten.
+        let (a, b) = pair();
+        let _ = l1_and_grad(&a, &b, 1.0, &mut Image::new(1, 1));
+    }
+
+    #[test]
+    #[should_panic(expected = "gradient image is 3x1, input is 2x1")]
+    fn l2_refuses_a_gradient_image_of_another_size() {
+        let (a, b) = pair();
+        let _ = l2_and_grad(&a, &b, 1.0, &mut Image::new(3, 1));
+    }
+}
