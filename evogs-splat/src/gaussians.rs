@@ -308,3 +308,81 @@ pub fn random_scene<T: Real>(
     .expect("benchmark camera is valid for a non-empty image");
     (s, cam)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fill_zero_zeroes_every_entry_and_keeps_the_length() {
+        let (mut s, _) = benchmark_scene::<f64>(3, 8, 1);
+        s.fill_zero();
+        assert_eq!(s, Splats::zeros(3, 3));
+    }
+
+    #[test]
+    fn emptiness_follows_the_gaussians() {
+        let mut s = Splats::<f64>::new(0);
+        assert!(s.is_empty(), "new");
+        s.push(
+            Vec3::zero(),
+            Vec3::zero(),
+            Quat::identity(),
+            0.0,
+            &[[0.0; 3]],
+        );
+        assert!(!s.is_empty(), "after a push");
+    }
+
+    #[test]
+    fn each_gaussian_writes_its_own_coefficients() {
+        // Degree 1: 4 triples per Gaussian, Gaussian i at sh[4i..4i + 4].
+        let mut s = Splats::<f64>::zeros(3, 1);
+        for i in 0..3 {
+            let c = s.sh_coeffs_mut(i);
+            assert_eq!(c.len(), 4, "triples of {i}");
+            for (j, t) in c.iter_mut().enumerate() {
+                *t = [(10 * i + j) as f64, 0.5, -1.0];
+            }
+        }
+        for (flat, t) in s.sh.iter().enumerate() {
+            let (i, j) = (flat / 4, flat % 4);
+            assert_eq!(
+                t[0].to_bits(),
+                ((10 * i + j) as f64).to_bits(),
+                "triple {j} of {i}"
+            );
+        }
+        assert_eq!(s.sh_coeffs(2)[3][0].to_bits(), 23.0_f64.to_bits());
+    }
+
+    #[test]
+    fn check_refuses_each_inconsistency_alone() {
+        let (s, _) = benchmark_scene::<f64>(2, 8, 1);
+        assert!(s.check(), "consistent");
+        type Break = fn(&mut Splats<f64>);
+        let broken: [(&str, Break); 5] = [
+            ("degree 4", |s| {
+                s.sh_degree = 4;
+                s.sh.resize(2 * 25, [0.0; 3]);
+            }),
+            ("a log-scale short", |s| {
+                s.log_scales.pop();
+            }),
+            ("a quaternion short", |s| {
+                s.quats.pop();
+            }),
+            ("an opacity short", |s| {
+                s.opacity_logits.pop();
+            }),
+            ("a triple short", |s| {
+                s.sh.pop();
+            }),
+        ];
+        for (what, breaks) in broken {
+            let mut b = s.clone();
+            breaks(&mut b);
+            assert!(!b.check(), "{what}");
+        }
+    }
+}
