@@ -385,4 +385,73 @@ mod tests {
             assert!(!b.check(), "{what}");
         }
     }
+
+    #[test]
+    fn random_scenes_span_their_documented_ranges() {
+        let n = 2000;
+        let (s, _) = random_scene::<f64>(n, 8, 3, [0.01, 0.03], [0.5, 0.9]);
+        // Means fill the cube [-0.5, 0.5]^3 in every component.
+        for c in 0..3 {
+            let v: Vec<f64> = s.means.iter().map(|m| m.to_array()[c]).collect();
+            let (lo, hi) = v
+                .iter()
+                .fold((1.0_f64, -1.0_f64), |(a, b), &x| (a.min(x), b.max(x)));
+            assert!(
+                (-0.5..-0.45).contains(&lo) && hi > 0.45 && hi <= 0.5,
+                "component {c}: {lo}..{hi}"
+            );
+        }
+        // Opacities uniform in [0.5, 0.9].
+        let o: Vec<f64> = s
+            .opacity_logits
+            .iter()
+            .map(|&l| evogs_math::activation::sigmoid(l))
+            .collect();
+        assert!(
+            o.iter().all(|&x| (0.5 - 1e-12..=0.9 + 1e-12).contains(&x)),
+            "opacity range"
+        );
+        assert!(
+            o.iter().any(|&x| x < 0.52) && o.iter().any(|&x| x > 0.88),
+            "opacities spread"
+        );
+        // DC colours (colour = SH_C0 k0 + 1/2) uniform in [0, 1]; higher coefficients ~ N(0, 0.05²).
+        let k = s.coeffs_per_gaussian();
+        let dc: Vec<f64> = (0..n)
+            .flat_map(|i| s.sh_coeffs(i)[0])
+            .map(|v| SH_C0 * v + 0.5)
+            .collect();
+        assert!(
+            dc.iter().all(|&x| (-1e-12..=1.0 + 1e-12).contains(&x)),
+            "colour range"
+        );
+        assert!(
+            dc.iter().any(|&x| x < 0.02) && dc.iter().any(|&x| x > 0.98),
+            "colours spread"
+        );
+        let rest: Vec<f64> = (0..n)
+            .flat_map(|i| {
+                s.sh_coeffs(i)[1..k]
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let rms = (rest.iter().map(|v| v * v).sum::<f64>()
+            / f64::from(u32::try_from(rest.len()).expect("count")))
+        .sqrt();
+        assert!(
+            (0.048..0.052).contains(&rms),
+            "higher coefficients' spread {rms}"
+        );
+        // A degenerate opacity range gives that opacity exactly, without drawing.
+        let (d, _) = random_scene::<f64>(5, 8, 3, [0.01, 0.03], [0.7, 0.7]);
+        assert!(
+            d.opacity_logits
+                .iter()
+                .all(|&l| (evogs_math::activation::sigmoid(l) - 0.7).abs() < 1e-12),
+            "degenerate range"
+        );
+    }
 }
