@@ -293,3 +293,55 @@ impl Binning {
         &self.tile_offsets
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rect_contains_exactly_its_half_open_cells() {
+        let r = Rect {
+            x0: 2,
+            x1: 4,
+            y0: 5,
+            y1: 6,
+        };
+        let inside: Vec<(usize, usize)> = (0..8)
+            .flat_map(|y| (0..8).map(move |x| (x, y)))
+            .filter(|&(x, y)| r.contains(x, y))
+            .collect();
+        assert_eq!(inside, [(2, 5), (3, 5)]);
+        assert_eq!(inside.len(), r.area());
+    }
+
+    #[test]
+    fn every_pixel_centre_in_the_screen_box_lies_in_a_binned_tile() {
+        // The exactness claim of the module docs, on both axes: for means on a quarter-pixel
+        // grid around and across tile edges and integer radii, each pixel whose centre
+        // c + 1/2 is within r of the mean is in one of the Gaussian's tiles.
+        let grid = TileGrid::new(64, 48);
+        for ui in -80..300 {
+            let u = f64::from(ui) * 0.25;
+            for r in [0_u32, 1, 2, 3, 7, 16, 17] {
+                let rect = grid.tile_rect(Vec2::new(u, u * 0.75), [r, r]);
+                let box_holds = |c: usize, centre: f64| {
+                    let c = f64::from(u32::try_from(c).expect("pixel")) + 0.5;
+                    (centre - f64::from(r)..=centre + f64::from(r)).contains(&c)
+                };
+                for c in (0..64).filter(|&c| box_holds(c, u)) {
+                    assert!(
+                        rect.x0 as usize <= c / TILE_SIZE && c / TILE_SIZE < rect.x1 as usize,
+                        "column {c} of the box of u = {u}, r = {r}: {rect:?}"
+                    );
+                }
+                for c in (0..48).filter(|&c| box_holds(c, u * 0.75)) {
+                    assert!(
+                        rect.y0 as usize <= c / TILE_SIZE && c / TILE_SIZE < rect.y1 as usize,
+                        "row {c} of the box of v = {}, r = {r}: {rect:?}",
+                        u * 0.75
+                    );
+                }
+            }
+        }
+    }
+}
