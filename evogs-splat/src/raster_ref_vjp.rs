@@ -152,3 +152,55 @@ pub fn rasterize_ref_vjp<T: Real>(
     }
     d_bg
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const RGB: [f64; 6] = [0.0; 6];
+    const ONE: [f64; 2] = [0.0; 2];
+    const SHORT: [f64; 1] = [0.0];
+
+    #[test]
+    fn cotangents_covering_every_pixel_pass() {
+        let g = PixelGrad {
+            rgb: &RGB,
+            alpha: Some(&ONE),
+            depth: None,
+        };
+        g.assert_pixels(2);
+    }
+
+    #[test]
+    #[should_panic(expected = "rgb cotangent length")]
+    fn a_short_colour_cotangent_is_refused() {
+        let g = PixelGrad {
+            rgb: &RGB[..5],
+            alpha: None,
+            depth: None,
+        };
+        g.assert_pixels(2);
+    }
+
+    #[test]
+    #[should_panic(expected = "alpha cotangent length")]
+    fn a_short_alpha_cotangent_is_refused() {
+        let g = PixelGrad {
+            rgb: &RGB,
+            alpha: Some(&SHORT),
+            depth: Some(&ONE),
+        };
+        g.assert_pixels(2);
+    }
+
+    #[test]
+    #[should_panic(expected = "depth cotangent length")]
+    fn a_short_depth_cotangent_is_refused() {
+        let g = PixelGrad {
+            rgb: &RGB,
+            alpha: Some(&ONE),
+            depth: Some(&SHORT),
+        };
+        g.assert_pixels(2);
+    }
+}
