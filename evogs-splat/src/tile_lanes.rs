@@ -227,3 +227,63 @@ pub(crate) fn for_each_item<S: Send>(
         f(i, s);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn splat<T: Real>(opacity: f64) -> TileSplat<T> {
+        TileSplat {
+            mean: Vec2::zero(),
+            conic: [T::ONE, T::ZERO, T::ONE],
+            opacity: T::from_f64(opacity),
+            cut: crate::raster_ref::sigma_cutoff(T::from_f64(opacity)),
+            color: [T::ZERO; 3],
+            depth: T::ONE,
+            pixels: Rect::default(),
+            radii: [0; 2],
+        }
+    }
+
+    #[test]
+    fn the_pixel_at_the_mean_is_kept_like_the_reference_keeps_it() {
+        // σ = 0 exactly (a mean on a pixel centre): not skipped, α = o', unclamped.
+        let hit = eval_lane::<f64, false>(&splat(0.5), 0.0);
+        assert_eq!(
+            [hit.alpha, hit.g, hit.unclamped, hit.visible].map(f64::to_bits),
+            [0.5, 1.0, 1.0, 1.0].map(f64::to_bits)
+        );
+        let r = crate::raster_ref::splat_alpha_cut::<f64>(
+            Vec2::zero(),
+            [1.0, 0.0, 1.0],
+            0.5,
+            crate::raster_ref::sigma_cutoff(0.5),
+            0.0,
+            0.0,
+        )
+        .expect("the reference keeps it");
+        assert_eq!(r.alpha.to_bits(), hit.alpha.to_bits());
+    }
+
+    #[test]
+    fn a_skipped_lane_has_finite_fields_however_negative_its_sigma() {
+        // σ far below zero (an indefinite conic far from its mean): exp(−σ) would overflow,
+        // and a skipped lane's zero weight times an infinite G is NaN in the backward pass.
+        let h32 = eval_lane::<f32, false>(&splat(0.5), -200.0);
+        let h64 = eval_lane::<f64, false>(&splat(0.5), -1000.0);
+        assert!(
+            [h32.alpha, h32.g, h32.unclamped, h32.visible]
+                .iter()
+                .all(|v| v.is_finite())
+                && h32.visible == 0.0,
+            "f32: {h32:?}"
+        );
+        assert!(
+            [h64.alpha, h64.g, h64.unclamped, h64.visible]
+                .iter()
+                .all(|v| v.is_finite())
+                && h64.visible == 0.0,
+            "f64: {h64:?}"
+        );
+    }
+}
