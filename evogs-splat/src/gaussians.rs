@@ -159,6 +159,37 @@ impl<T: Real> Splats<T> {
         self.sh.extend_from_slice(&sh[..k]);
     }
 
+    /// The Gaussians at `indices`, in that order (a subset, a permutation, or repeats),
+    /// at the same SH degree.
+    ///
+    /// ```
+    /// use evogs_splat::Splats;
+    /// use evogs_math::{Quat, Vec3};
+    /// let mut s = Splats::<f64>::new(0);
+    /// for k in 0..3 {
+    ///     s.push(Vec3::splat(f64::from(k)), Vec3::zero(), Quat::identity(), 0.0, &[[0.5; 3]]);
+    /// }
+    /// let t = s.select([2, 0]);
+    /// assert_eq!(t.means, [Vec3::splat(2.0), Vec3::zero()]);
+    /// ```
+    ///
+    /// # Panics
+    /// If an index is out of range.
+    #[must_use]
+    pub fn select(&self, indices: impl IntoIterator<Item = usize>) -> Self {
+        let mut out = Self::new(self.sh_degree);
+        for i in indices {
+            out.push(
+                self.means[i],
+                self.log_scales[i],
+                self.quats[i],
+                self.opacity_logits[i],
+                self.sh_coeffs(i),
+            );
+        }
+        out
+    }
+
     /// `true` if every vector has the length implied by [`len`](Self::len) and the degree is
     /// at most 3.
     #[must_use]

@@ -442,19 +442,6 @@ mod tests {
     use super::*;
     use crate::gaussians::benchmark_scene;
 
-    /// Gaussian `i` of `s`, alone.
-    fn alone(s: &Splats<f64>, i: usize) -> Splats<f64> {
-        let mut one = Splats::new(s.sh_degree);
-        one.push(
-            s.means[i],
-            s.log_scales[i],
-            s.quats[i],
-            s.opacity_logits[i],
-            s.sh_coeffs(i),
-        );
-        one
-    }
-
     fn bits3(v: [f64; 3]) -> [u64; 3] {
         v.map(f64::to_bits)
     }
@@ -488,7 +475,7 @@ mod tests {
                 );
             }
             for i in 0..n {
-                let one = preprocess(&alone(&s, i), &cam, &opts);
+                let one = preprocess(&s.select([i]), &cam, &opts);
                 assert_eq!(all.means2d[i], one.means2d[0], "mean of {i}");
                 assert_eq!(bits3(all.conics[i]), bits3(one.conics[0]), "conic of {i}");
                 assert_eq!(bits3(all.colors[i]), bits3(one.colors[0]), "colour of {i}");
@@ -532,7 +519,7 @@ mod tests {
             let cam_grad = preprocess_vjp(&s, &cam, &opts, &pre, &d, &mut grad);
             let mut cam_sum = Vec3::zero();
             for i in 0..n {
-                let one = alone(&s, i);
+                let one = s.select([i]);
                 let pre1 = preprocess(&one, &cam, &opts);
                 let mut d1 = RasterInputGrad::zeros(1);
                 d1.means2d[0] = d.means2d[i];

@@ -161,46 +161,31 @@ mod tests {
     const ONE: [f64; 2] = [0.0; 2];
     const SHORT: [f64; 1] = [0.0];
 
+    /// The shape check of these cotangents for two pixels.
+    fn check_two_pixels(rgb: &[f64], alpha: Option<&[f64]>, depth: Option<&[f64]>) {
+        PixelGrad { rgb, alpha, depth }.assert_pixels(2);
+    }
+
     #[test]
     fn cotangents_covering_every_pixel_pass() {
-        let g = PixelGrad {
-            rgb: &RGB,
-            alpha: Some(&ONE),
-            depth: None,
-        };
-        g.assert_pixels(2);
+        check_two_pixels(&RGB, Some(&ONE), None);
     }
 
     #[test]
     #[should_panic(expected = "rgb cotangent length")]
     fn a_short_colour_cotangent_is_refused() {
-        let g = PixelGrad {
-            rgb: &RGB[..5],
-            alpha: None,
-            depth: None,
-        };
-        g.assert_pixels(2);
+        check_two_pixels(&RGB[..5], None, None);
     }
 
     #[test]
     #[should_panic(expected = "alpha cotangent length")]
     fn a_short_alpha_cotangent_is_refused() {
-        let g = PixelGrad {
-            rgb: &RGB,
-            alpha: Some(&SHORT),
-            depth: Some(&ONE),
-        };
-        g.assert_pixels(2);
+        check_two_pixels(&RGB, Some(&SHORT), Some(&ONE));
     }
 
     #[test]
     #[should_panic(expected = "depth cotangent length")]
     fn a_short_depth_cotangent_is_refused() {
-        let g = PixelGrad {
-            rgb: &RGB,
-            alpha: Some(&ONE),
-            depth: Some(&SHORT),
-        };
-        g.assert_pixels(2);
+        check_two_pixels(&RGB, Some(&ONE), Some(&SHORT));
     }
 }

@@ -318,16 +318,7 @@ pub fn raster_case(seed: u64) {
         .map(|i| i >= n_ordinary && !odd_finite[i - n_ordinary] && !r.valid[i])
         .collect();
     if drop.iter().any(|&d| d) {
-        let mut kept = Splats::new(degree);
-        for i in (0..s.len()).filter(|&i| !drop[i]) {
-            kept.push(
-                s.means[i],
-                s.log_scales[i],
-                s.quats[i],
-                s.opacity_logits[i],
-                s.sh_coeffs(i),
-            );
-        }
+        let kept = s.select((0..s.len()).filter(|&i| !drop[i]));
         let r2 = run_raster(&kept, &cam, &opts, &d_rgb, &d_alpha, &d_depth);
         assert!(
             same_bits(&r.images, &r2.images),
