@@ -24,7 +24,7 @@ if ! cargo mutants --version >/dev/null 2>&1; then
     exit 2
 fi
 
-count() { [ -f "$1" ] && grep -c . "$1" || echo 0; }
+count() { if [ -f "$1" ]; then grep -c . "$1" || true; else echo 0; fi; }  # grep -c prints 0 for an empty file
 
 status=0
 for c in "${crates[@]}"; do
