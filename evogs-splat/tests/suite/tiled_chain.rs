@@ -1,16 +1,18 @@
 //! The tiled rasterizer as a whole: `Par::Rayon` equals `Par::Seq` bitwise, an empty scene
 //! renders the background, the radius rule does not change the image, the densification
 //! statistics are the norms of the reference 2D-mean gradients, the backward is the adjoint
-//! of a dual-number forward, and `render_tiled_vjp` matches `render_vjp` on the parameters.
+//! of a dual-number forward, `render_tiled_vjp` matches `render_vjp` on the parameters, the
+//! backward reuses the forward's binning only when it would bin the same, and a reused
+//! output follows the image size (empty ones included).
 
 use crate::tiled_common;
 
 use evogs_math::diff::vjp_dot_test;
-use evogs_math::{Dual, Par, Real, Vec2};
+use evogs_math::{Dual, Par, Real, Vec2, Vec3};
 use evogs_splat::{
-    DensifyStats, ExpMode, PixelGrad, Preprocessed, RadiusMode, RasterInputGrad, RenderOptions,
-    Splats, TiledRasterizer, benchmark_scene, preprocess, render, render_tiled, render_tiled_vjp,
-    render_vjp,
+    Binning, DensifyStats, ExpMode, PixelGrad, Preprocessed, RadiusMode, RasterInputGrad,
+    RenderOptions, Splats, TileGrid, TiledRasterizer, benchmark_scene, preprocess, render,
+    render_tiled, render_tiled_vjp, render_vjp,
 };
 use tiled_common::{camera, cotangents, rel_err, scene};
 
@@ -277,43 +279,162 @@ fn backward_is_the_adjoint_of_the_dual_number_forward() {
     }
 }
 
+/// `pre` with only the Gaussians `keep` valid, composited in that order.
+fn restrict<T: Real>(pre: &Preprocessed<T>, keep: &[u32]) -> Preprocessed<T> {
+    let mut p = pre.clone();
+    p.valid.iter_mut().for_each(|v| *v = false);
+    for &g in keep {
+        p.valid[g as usize] = true;
+    }
+    p.order = keep.to_vec();
+    p
+}
+
 #[test]
 fn backward_rebins_when_the_inputs_change() {
-    // The backward reuses the forward's binning only for identical inputs: a backward for
-    // another scene (or after moving one Gaussian) must equal a fresh rasterizer's.
-    let (splats, cam) = scene(50, 40, 60, 0, 21);
+    // The backward reuses the forward's binning only when it would bin the same: after a
+    // forward of `a`, a backward of `b` must equal a fresh rasterizer's for every kind of
+    // change (each one that a wrong cache test would let through).
+    let (w, h, n) = (50, 40, 60);
+    let (splats, cam) = scene(w, h, n, 0, 21);
     let opts = RenderOptions::<f64>::default();
-    let pre_a = preprocess(&splats, &cam, &opts);
-    let mut moved = splats.clone();
-    moved.means[7].x += 0.05;
-    let pre_b = preprocess(&moved, &cam, &opts);
-    let (rgb, alpha, depth) = cotangents(50 * 40, 21);
-    let d = PixelGrad {
-        rgb: &rgb,
-        alpha: Some(&alpha),
-        depth: Some(&depth),
-    };
-    let out_b = TiledRasterizer::new().forward(&pre_b, opts.background, Par::Seq);
-    let run = |rast: &mut TiledRasterizer<f64>| {
-        let mut g = RasterInputGrad::zeros(60);
-        let mut s = DensifyStats::default();
-        let bg = rast.backward(
-            &pre_b,
-            opts.background,
-            &out_b,
-            &d,
-            Par::Seq,
-            &mut g,
-            &mut s,
+    let pre = preprocess(&splats, &cam, &opts);
+    let mut variants: Vec<(&str, Preprocessed<f64>, Preprocessed<f64>)> = Vec::new();
+
+    // One Gaussian moved along the camera's x axis (so that no depth changes) by a fraction
+    // of a pixel (its tiles may stay the same) and by more than a tile (they change).
+    let g = pre
+        .order
+        .iter()
+        .map(|&g| g as usize)
+        .find(|&g| pre.means2d[g].x < (w - 25) as f64 && pre.radii[g][0] < 8)
+        .expect("a Gaussian left of the middle");
+    for (name, dx) in [("moved a little", 0.05), ("moved a tile", 17.0)] {
+        let mut moved = splats.clone();
+        let z = pre.depths[g];
+        moved.means[g] += cam
+            .rotation
+            .tr_mul_vec(Vec3::new(dx * z / cam.fx, 0.0, 0.0));
+        let b = preprocess(&moved, &cam, &opts);
+        assert!(b.order == pre.order, "{name}: same compositing order");
+        assert!(
+            (b.means2d[g].x - pre.means2d[g].x - dx).abs() < 1e-6,
+            "{name}: moved by dx"
         );
-        (g, s, bg)
-    };
-    let fresh = run(&mut TiledRasterizer::new());
-    let mut stale = TiledRasterizer::new();
-    let _ = stale.forward(&pre_a, opts.background, Par::Seq);
-    assert!(run(&mut stale) == fresh, "stale binning reused");
-    // And the same inputs twice reuse it with identical results.
-    let mut warm = TiledRasterizer::new();
-    let _ = warm.forward(&pre_b, opts.background, Par::Seq);
-    assert!(run(&mut warm) == fresh, "reused binning differs");
+        variants.push((name, pre.clone(), b));
+    }
+
+    // The same Gaussians in a larger image: the packing is the same when no pixel box
+    // reaches the right or bottom edge, the tile grid is not.
+    let inside: Vec<u32> = pre
+        .order
+        .iter()
+        .copied()
+        .filter(|&g| {
+            let (m, r) = (pre.means2d[g as usize], pre.radii[g as usize]);
+            m.x + f64::from(r[0]) < (w - 2) as f64 && m.y + f64::from(r[1]) < (h - 2) as f64
+        })
+        .collect();
+    assert!(inside.len() > 5, "{} Gaussians inside", inside.len());
+    let small = restrict(&pre, &inside);
+    let mut large = small.clone();
+    (large.width, large.height) = (w + 16, h + 16);
+    variants.push(("larger image", small, large));
+
+    // Two Gaussians with the same packed fields, composited in the other order: the packing
+    // is the same, the Gaussian at each position is not.
+    let (k0, k1) = (pre.order[0], pre.order[1]);
+    let (g0, g1) = (k0 as usize, k1 as usize);
+    let mut twins = pre.clone();
+    twins.means2d[g1] = twins.means2d[g0];
+    twins.conics[g1] = twins.conics[g0];
+    twins.colors[g1] = twins.colors[g0];
+    twins.opacities[g1] = twins.opacities[g0];
+    twins.depths[g1] = twins.depths[g0];
+    twins.radii[g1] = twins.radii[g0];
+    variants.push((
+        "twins swapped",
+        restrict(&twins, &[k0, k1]),
+        restrict(&twins, &[k1, k0]),
+    ));
+
+    // The same inputs twice reuse the binning with identical results.
+    variants.push(("same inputs", pre.clone(), pre.clone()));
+
+    for (name, a, b) in &variants {
+        let np = b.width * b.height;
+        let (rgb, alpha, depth) = cotangents(np, 21);
+        let d = PixelGrad {
+            rgb: &rgb,
+            alpha: Some(&alpha),
+            depth: Some(&depth),
+        };
+        let out_b = TiledRasterizer::new().forward(b, opts.background, Par::Seq);
+        let run = |rast: &mut TiledRasterizer<f64>| {
+            let mut g = RasterInputGrad::zeros(n);
+            let mut s = DensifyStats::default();
+            let bg = rast.backward(b, opts.background, &out_b, &d, Par::Seq, &mut g, &mut s);
+            (g, s, bg)
+        };
+        let fresh = run(&mut TiledRasterizer::new());
+        assert!(
+            fresh.0.means2d.iter().any(|m| m.norm() > 0.0),
+            "{name}: some gradient"
+        );
+        let mut warm = TiledRasterizer::new();
+        let _ = warm.forward(a, opts.background, Par::Seq);
+        assert!(
+            run(&mut warm) == fresh,
+            "{name}: differs from a fresh backward"
+        );
+    }
+}
+
+#[test]
+fn forward_into_resizes_a_reused_output() {
+    // One output reused across image sizes, including empty ones (a zero width with a
+    // non-zero height and the converse): each call equals a fresh `forward`.
+    let mut rast = TiledRasterizer::<f64>::with_exp(ExpMode::Exact);
+    assert!(
+        rast.exp_mode() == ExpMode::Exact,
+        "the exponential asked for"
+    );
+    assert!(
+        TiledRasterizer::<f64>::new().exp_mode() == ExpMode::Fast,
+        "the default exponential"
+    );
+    let bg = [0.1, 0.2, 0.3];
+    let mut out = TiledRasterizer::new().forward(
+        &preprocess(
+            &scene(3, 2, 1, 0, 1).0,
+            &camera(3, 2),
+            &RenderOptions::default(),
+        ),
+        bg,
+        Par::Seq,
+    );
+    for (w, h) in [(37, 21), (37, 5), (12, 5), (0, 7), (7, 0), (0, 0), (20, 33)] {
+        // A camera has at least one pixel: an empty image is a preprocessed one cut down.
+        let (splats, cam) = scene(w.max(1), h.max(1), 40, 0, 9);
+        let mut pre = preprocess(&splats, &cam, &RenderOptions::default());
+        (pre.width, pre.height) = (w, h);
+        rast.forward_into(&pre, bg, Par::Seq, &mut out);
+        let fresh = TiledRasterizer::with_exp(ExpMode::Exact).forward(&pre, bg, Par::Seq);
+        assert!(out == fresh, "{w}×{h}: differs from a fresh forward");
+        assert!(
+            rast.binning().grid() == TileGrid::new(w, h),
+            "{w}×{h}: the binning of the last call"
+        );
+        assert!(
+            rast.binning().n_entries() == fresh_entries(&pre),
+            "{w}×{h}: its entries"
+        );
+    }
+}
+
+/// The number of (tile, Gaussian) pairs of `pre`, binned afresh.
+fn fresh_entries(pre: &Preprocessed<f64>) -> usize {
+    let mut b = Binning::default();
+    b.bin(pre);
+    b.n_entries()
 }
