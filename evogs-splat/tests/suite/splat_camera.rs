@@ -1,5 +1,5 @@
 //! The pinhole camera: D-NeRF (OpenGL camera-to-world) conversion, look-at, view matrices,
-//! validation errors.
+//! validation errors (each checked entry alone, and the rigidity tolerance at its edge).
 
 use evogs_math::Vec3;
 use evogs_splat::{CameraError, PinholeCamera};
@@ -166,4 +166,95 @@ fn invalid_cameras_are_typed_errors() {
         "up parallel to the view"
     );
     assert!(!format!("{}", CameraError::NotRigid).is_empty(), "Display");
+}
+
+#[test]
+fn validation_checks_every_entry_and_is_inclusive_at_the_tolerance() {
+    // The documented rigidity tolerance: a deviation of exactly 1e-4 is accepted, more is not.
+    const TOL: f64 = 1e-4;
+    let dnerf = |c2w: [[f64; 4]; 4], fov: f64| PinholeCamera::<f64>::from_dnerf(c2w, fov, 100, 80);
+    for j in 0..4 {
+        let mut off = C2W;
+        off[3][j] += 10.0 * TOL;
+        assert_eq!(
+            dnerf(off, FOV_X).err(),
+            Some(CameraError::NotRigid),
+            "bottom row entry {j} alone"
+        );
+    }
+    for j in 0..3 {
+        for s in [TOL, -TOL] {
+            let mut edge = C2W;
+            edge[3][j] = s;
+            assert!(dnerf(edge, FOV_X).is_ok(), "bottom row entry {j} at {s}");
+        }
+    }
+    assert_eq!(
+        dnerf(C2W, core::f64::consts::PI).err(),
+        Some(CameraError::BadIntrinsics),
+        "a field of view of π"
+    );
+    assert!(dnerf(C2W, 3.1).is_ok(), "just under π");
+
+    // A shear has determinant 1 exactly; only RᵀR − I (its entry (0, 1) is the shear) shows it.
+    let k = [[50.0, 0.0, 32.0], [0.0, 50.0, 24.0], [0.0, 0.0, 1.0]];
+    let sheared = |a: f64| {
+        let v = [
+            [1.0, a, 0.0, 0.1],
+            [0.0, 1.0, 0.0, 0.2],
+            [0.0, 0.0, 1.0, 3.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ];
+        PinholeCamera::from_viewmat(v, k, 64, 48, 0.01, 100.0)
+    };
+    assert_eq!(sheared(0.1).err(), Some(CameraError::NotRigid), "shear 0.1");
+    assert!(sheared(TOL).is_ok(), "shear at the tolerance");
+    assert_eq!(
+        sheared(2.0 * TOL).err(),
+        Some(CameraError::NotRigid),
+        "shear 2e-4"
+    );
+
+    // Every entry that is read is checked for finiteness, alone.
+    let id = [
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let view = |v, k, near, far| PinholeCamera::from_viewmat(v, k, 64, 48, near, far).err();
+    assert_eq!(view(id, k, 0.01, 100.0), None, "valid");
+    for (i, j) in [(0, 0), (1, 1), (0, 2), (1, 2)] {
+        let mut kn = k;
+        kn[i][j] = f64::NAN;
+        assert_eq!(
+            view(id, kn, 0.01, 100.0),
+            Some(CameraError::NonFinite),
+            "K[{i}][{j}]"
+        );
+    }
+    for (i, j) in [(0, 0), (1, 2), (2, 3), (3, 3)] {
+        let mut vn = id;
+        vn[i][j] = f64::INFINITY;
+        assert_eq!(
+            view(vn, k, 0.01, 100.0),
+            Some(CameraError::NonFinite),
+            "view[{i}][{j}]"
+        );
+    }
+    assert_eq!(
+        view(id, k, f64::NAN, 100.0),
+        Some(CameraError::NonFinite),
+        "near"
+    );
+    assert_eq!(
+        view(id, k, 0.01, f64::NAN),
+        Some(CameraError::NonFinite),
+        "far"
+    );
+    assert_eq!(
+        view(id, k, 0.01, f64::INFINITY),
+        None,
+        "an infinite far plane"
+    );
 }
