@@ -258,3 +258,138 @@ fn validation_checks_every_entry_and_is_inclusive_at_the_tolerance() {
         "an infinite far plane"
     );
 }
+
+#[test]
+fn view_matrix_validation_checks_every_condition_alone() {
+    const TOL: f64 = 1e-4;
+    let k = [[50.0, 0.0, 32.0], [0.0, 50.0, 24.0], [0.0, 0.0, 1.0]];
+    let v = [
+        [1.0, 0.0, 0.0, 0.1],
+        [0.0, 1.0, 0.0, 0.2],
+        [0.0, 0.0, 1.0, 3.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let view = |v, k, w, h, near, far| PinholeCamera::from_viewmat(v, k, w, h, near, far).err();
+    assert_eq!(view(v, k, 64, 48, 0.01, 100.0), None, "valid");
+    assert_eq!(
+        view(v, k, 0, 48, 0.01, 100.0),
+        Some(CameraError::EmptyImage),
+        "no width"
+    );
+    assert_eq!(
+        view(v, k, 64, 0, 0.01, 100.0),
+        Some(CameraError::EmptyImage),
+        "no height"
+    );
+    for (near, far) in [(0.0, 1.0), (-1.0, 1.0), (2.0, 2.0), (2.0, 1.0)] {
+        assert_eq!(
+            view(v, k, 64, 48, near, far),
+            Some(CameraError::BadClipRange),
+            "near {near}, far {far}"
+        );
+    }
+    assert_eq!(
+        view(v, k, 64, 48, 1e-300, 2e-300),
+        None,
+        "any 0 < near < far"
+    );
+    for (i, j) in [(0, 0), (1, 1)] {
+        for f in [0.0, -50.0] {
+            let mut kb = k;
+            kb[i][j] = f;
+            assert_eq!(
+                view(v, kb, 64, 48, 0.01, 100.0),
+                Some(CameraError::BadIntrinsics),
+                "K[{i}][{j}] = {f}"
+            );
+        }
+    }
+    for j in 0..4 {
+        let mut off = v;
+        off[3][j] += 10.0 * TOL;
+        assert_eq!(
+            view(off, k, 64, 48, 0.01, 100.0),
+            Some(CameraError::NotRigid),
+            "bottom row entry {j} alone"
+        );
+        let mut neg = v;
+        neg[3][j] -= 10.0 * TOL;
+        assert_eq!(
+            view(neg, k, 64, 48, 0.01, 100.0),
+            Some(CameraError::NotRigid),
+            "bottom row entry {j} alone, below"
+        );
+    }
+    for j in 0..3 {
+        for s in [TOL, -TOL] {
+            let mut edge = v;
+            edge[3][j] = s;
+            assert_eq!(
+                view(edge, k, 64, 48, 0.01, 100.0),
+                None,
+                "bottom row entry {j} at {s}"
+            );
+        }
+    }
+}
+
+#[test]
+fn look_at_checks_each_input_and_its_degeneracy_test_is_scale_free() {
+    let (eye, target) = (Vec3::new(0.3, -0.2, 4.0), Vec3::new(0.05, 0.0, 0.0));
+    let up = Vec3::new(0.0, 1.0, 0.0);
+    let look = |eye, target, up, w, h| PinholeCamera::<f64>::look_at(eye, target, up, 0.8, w, h);
+    assert!(look(eye, target, up, 8, 6).is_ok(), "valid");
+    let nan = Vec3::new(0.0, f64::NAN, 0.0);
+    assert_eq!(
+        look(nan, target, up, 8, 6).err(),
+        Some(CameraError::NonFinite),
+        "eye"
+    );
+    assert_eq!(
+        look(eye, nan, up, 8, 6).err(),
+        Some(CameraError::NonFinite),
+        "target"
+    );
+    assert_eq!(
+        look(eye, target, nan, 8, 6).err(),
+        Some(CameraError::NonFinite),
+        "up"
+    );
+    assert_eq!(
+        look(eye, target, up, 0, 6).err(),
+        Some(CameraError::EmptyImage),
+        "no width"
+    );
+    assert_eq!(
+        look(eye, target, up, 8, 0).err(),
+        Some(CameraError::EmptyImage),
+        "no height"
+    );
+
+    // `up` nearly parallel to the view: accepted while |fwd × up| > 1e-12 |fwd| |up|, at
+    // every scale of the distance and of `up`, and giving the same camera at every scale.
+    // (The eye is at the origin so that `target − eye` is exact at every distance.)
+    let (eye, dir) = (Vec3::zero(), target - eye);
+    let fwd = dir * (1.0 / dir.norm());
+    let side = fwd.cross(up) * (1.0 / fwd.cross(up).norm());
+    let reference = look(eye, dir, up, 8, 6).expect("valid");
+    for dist in [1e-6, 1e-3, 1.0, 1e3, 1e6] {
+        for scale in [1e-6, 1.0, 1e6] {
+            let along = |eps: f64| (fwd + side * eps) * scale;
+            assert!(
+                look(eye, fwd * dist, along(1e-9), 8, 6).is_ok(),
+                "distance {dist}, |up| {scale}: 1e-9 off the view is enough"
+            );
+            assert_eq!(
+                look(eye, fwd * dist, along(1e-14), 8, 6).err(),
+                Some(CameraError::DegenerateLookAt),
+                "distance {dist}, |up| {scale}: 1e-14 off the view is not"
+            );
+            let cam = look(eye, dir * dist, up * scale, 8, 6).expect("valid");
+            assert!(
+                (cam.rotation - reference.rotation).max_abs() < 1e-12,
+                "distance {dist}, |up| {scale}: the same axes"
+            );
+        }
+    }
+}
