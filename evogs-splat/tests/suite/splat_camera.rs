@@ -1,8 +1,8 @@
 //! The pinhole camera: D-NeRF (OpenGL camera-to-world) conversion, look-at, view matrices,
 //! validation errors (each checked entry alone, and the rigidity tolerance at its edge).
 
-use evogs_math::Vec3;
-use evogs_splat::{CameraError, PinholeCamera};
+use evogs_math::{Mat3, Vec3};
+use evogs_splat::{CameraError, CameraGrad, PinholeCamera};
 
 /// Frame `r_000` of the project's `toys-mini/transforms_train.json` (D-NeRF format).
 const C2W: [[f64; 4]; 4] = [
@@ -392,4 +392,23 @@ fn look_at_checks_each_input_and_its_degeneracy_test_is_scale_free() {
             );
         }
     }
+}
+
+#[test]
+fn centre_of_a_singular_rotation_and_gradient_sums() {
+    // A rotation field that lost rank (a camera being optimised can pass through one) has no
+    // inverse: the centre falls back to −Rᵀ t.
+    let mut cam = PinholeCamera::<f64>::from_dnerf(C2W, FOV_X, 100, 80).expect("valid");
+    cam.rotation = Mat3::diag(Vec3::new(1.0, 2.0, 0.0));
+    cam.translation = Vec3::new(1.0, 2.0, 3.0);
+    assert_eq!(cam.center(), Vec3::new(-1.0, -4.0, 0.0), "−Rᵀ t");
+
+    let g = |s: f64| CameraGrad {
+        rotation: Mat3::diag(Vec3::new(s, 2.0 * s, 3.0 * s)),
+        translation: Vec3::new(4.0 * s, 5.0 * s, 6.0 * s),
+        bottom: [7.0 * s, 8.0 * s, 9.0 * s, 10.0 * s],
+    };
+    let mut sum = g(1.0);
+    sum.add(&g(2.0));
+    assert_eq!(sum, g(3.0), "every part adds");
 }
