@@ -143,3 +143,99 @@ impl<T: Real, F: VectorField<T> + ?Sized> VectorField<T> for alloc::boxed::Box<F
         (**self).vjp_recorded(t, y, record, w, d_y, d_params);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use alloc::boxed::Box;
+    use alloc::vec;
+
+    /// `f(t, y; a) = a·y + t`, whose VJP reads `a` from the record (so a VJP that got no
+    /// record, or a record nobody wrote, shows).
+    struct Affine {
+        a: f64,
+    }
+
+    impl VectorField<f64> for Affine {
+        type Record = f64;
+        fn dim(&self) -> usize {
+            2
+        }
+        fn n_params(&self) -> usize {
+            1
+        }
+        fn eval(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
+            for (d, &v) in dydt.iter_mut().zip(y) {
+                *d = self.a * v + t;
+            }
+        }
+        fn vjp(&mut self, _t: f64, y: &[f64], w: &[f64], d_y: &mut [f64], d_params: &mut [f64]) {
+            for ((d, &v), &wi) in d_y.iter_mut().zip(y).zip(w) {
+                *d += self.a * wi;
+                d_params[0] += v * wi;
+            }
+        }
+        fn eval_recorded(&mut self, t: f64, y: &[f64], dydt: &mut [f64], record: &mut f64) {
+            *record = self.a;
+            self.eval(t, y, dydt);
+        }
+        fn vjp_recorded(
+            &mut self,
+            _t: f64,
+            y: &[f64],
+            record: &f64,
+            w: &[f64],
+            d_y: &mut [f64],
+            d_params: &mut [f64],
+        ) {
+            for ((d, &v), &wi) in d_y.iter_mut().zip(y).zip(w) {
+                *d += *record * wi;
+                d_params[0] += v * wi;
+            }
+        }
+    }
+
+    /// Every method of `f`, each output starting from a sentinel.
+    fn outputs<F: VectorField<f64, Record = f64>>(f: &mut F) -> Vec<f64> {
+        let (t, y, w) = (0.5, [1.0, -2.0], [3.0, 0.25]);
+        let mut out = vec![
+            f.dim() as f64,
+            f.n_params() as f64,
+            f.layout().tangent_len() as f64,
+        ];
+        let mut dydt = [7.0; 2];
+        f.eval(t, &y, &mut dydt);
+        out.extend(dydt);
+        let (mut d_y, mut d_p) = ([1.0; 2], [1.0]);
+        f.vjp(t, &y, &w, &mut d_y, &mut d_p);
+        out.extend(d_y.iter().chain(&d_p));
+        let mut rec = 0.0;
+        let mut dydt = [7.0; 2];
+        f.eval_recorded(t, &y, &mut dydt, &mut rec);
+        out.extend(dydt);
+        out.push(rec);
+        let (mut d_y, mut d_p) = ([1.0; 2], [1.0]);
+        f.vjp_recorded(t, &y, &rec, &w, &mut d_y, &mut d_p);
+        out.extend(d_y.iter().chain(&d_p));
+        out
+    }
+
+    #[test]
+    fn references_and_boxes_forward_every_method() {
+        let direct = outputs(&mut Affine { a: 1.5 });
+        assert_eq!(
+            direct,
+            [
+                2.0, 1.0, 2.0, 2.0, -2.5, 5.5, 1.375, 3.5, 2.0, -2.5, 1.5, 5.5, 1.375, 3.5
+            ],
+            "the field itself"
+        );
+        let mut owned = Affine { a: 1.5 };
+        assert_eq!(outputs(&mut &mut owned), direct, "through &mut");
+        assert_eq!(
+            outputs(&mut Box::new(Affine { a: 1.5 })),
+            direct,
+            "through Box"
+        );
+    }
+}

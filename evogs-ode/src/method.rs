@@ -156,4 +156,12 @@ mod tests {
         );
         assert!("rk5".parse::<Method>().is_err(), "unknown name");
     }
+
+    #[test]
+    fn the_parse_error_lists_the_names() {
+        let msg = "rk5".parse::<Method>().unwrap_err().to_string();
+        for m in Method::ALL {
+            assert!(msg.contains(m.name()), "{msg:?} names {m}");
+        }
+    }
 }
