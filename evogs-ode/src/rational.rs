@@ -177,6 +177,8 @@ mod tests {
         assert_eq!(a * b, Rational::new(1, 18), "1/6 · 1/3");
         assert_eq!(a - b, Rational::new(-1, 6), "1/6 − 1/3");
         assert_eq!(Rational::new(6, -8).den(), 4, "positive denominator");
+        assert_eq!(Rational::new(6, -8).num(), -3, "the sign on the numerator");
+        assert_eq!(Rational::new(-14, -4).num(), 7, "lowest terms");
         assert_eq!(Rational::new(0, 5), Rational::ZERO, "zero normalised");
         assert_eq!(alloc::format!("{}", Rational::new(3, 9)), "1/3", "display");
         assert!(

@@ -238,12 +238,14 @@ impl Tableau {
     }
 
     /// `true` for a "first same as last" tableau: the last row of `a` is `b`, the last node
-    /// is 1 and the last weight is 0, so the last stage is the field at the new state and
-    /// serves as the next step's first stage (Dormand–Prince, Bogacki–Shampine).
+    /// is 1 and the last weight is 0, so the last stage is the field at the new state; the
+    /// first node is 0, so the next step's first stage is the field there too and can be
+    /// taken from it (Dormand–Prince, Bogacki–Shampine).
     #[must_use]
     pub fn is_fsal(&self) -> bool {
         let s = self.stages;
         s > 1
+            && self.c[0].is_zero()
             && self.c[s - 1] == Rational::ONE
             && self.b[s - 1].is_zero()
             && (0..s - 1).all(|j| self.a[s - 1][j] == self.b[j])
@@ -378,6 +380,37 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn fsal_needs_every_one_of_its_conditions() {
+        // Bogacki–Shampine 3(2): FSAL.
+        let (c, b) = (
+            [Z, r(1, 2), r(3, 4), r(1, 1)],
+            [r(2, 9), r(1, 3), r(4, 9), Z],
+        );
+        let a: [&[Rational]; 4] = [&[], &[r(1, 2)], &[Z, r(3, 4)], &b[..3]];
+        let fsal = |c: &[Rational], a: &[&[Rational]], b: &[Rational]| {
+            Tableau::new("t", c, a, b).expect("a tableau").is_fsal()
+        };
+        assert!(fsal(&c, &a, &b), "Bogacki–Shampine");
+        let mut c0 = c;
+        c0[0] = r(1, 4);
+        assert!(!fsal(&c0, &a, &b), "first node not 0");
+        let mut c3 = c;
+        c3[3] = r(3, 4);
+        assert!(!fsal(&c3, &a, &b), "last node not 1");
+        let (mut b3, last) = (b, [r(2, 9), r(1, 3), r(4, 9)]);
+        b3[3] = r(1, 9);
+        let a3: [&[Rational]; 4] = [&[], &[r(1, 2)], &[Z, r(3, 4)], &last];
+        assert!(!fsal(&c, &a3, &b3), "last weight not 0");
+        let row = [r(2, 9), r(1, 3), r(1, 2)];
+        let a_row: [&[Rational]; 4] = [&[], &[r(1, 2)], &[Z, r(3, 4)], &row];
+        assert!(!fsal(&c, &a_row, &b), "last row not b");
+        assert!(
+            !Tableau::RK4.is_fsal() && !Tableau::EULER.is_fsal(),
+            "RK4, Euler"
+        );
     }
 
     #[test]
