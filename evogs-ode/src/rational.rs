@@ -103,11 +103,10 @@ const fn gcd128(mut a: i128, mut b: i128) -> i128 {
 
 impl Rational {
     /// `num/den` from wide intermediates, reduced; panics if the result does not fit.
+    /// `den` is a product of denominators, so it is positive and so is the gcd.
     fn from_wide(num: i128, den: i128) -> Self {
         let g = gcd128(num, den);
-        let g = if g == 0 { 1 } else { g };
-        let s = if den < 0 { -1 } else { 1 };
-        let (n, d) = (s * num / g, s * den / g);
+        let (n, d) = (num / g, den / g);
         match (i64::try_from(n), i64::try_from(d)) {
             (Ok(num), Ok(den)) => Self { num, den },
             _ => panic!("rational overflow: {n}/{d} does not fit in i64"),
