@@ -194,6 +194,38 @@ mod tests {
     }
 
     #[test]
+    fn only_a_later_time_is_forward() {
+        assert!(!TimeGrid::uniform(0.0_f64, 1.0, 8).is_backward(), "t1 > t0");
+        assert!(!TimeGrid::uniform(0.5_f64, 0.5, 0).is_backward(), "t1 = t0");
+        assert!(
+            !TimeGrid::with_max_step(0.5_f64, 0.5, 0.1).is_backward(),
+            "empty span"
+        );
+        assert!(
+            TimeGrid::with_max_step(0.5_f64, 0.25, 0.1).is_backward(),
+            "t1 < t0"
+        );
+    }
+
+    #[test]
+    fn a_span_of_n_steps_up_to_rounding_takes_n_steps_at_every_count() {
+        // `n·h` rounds, and so does `n·h / h`: the tolerance grows with the count, so that
+        // no tiny extra step appears however many steps there are.
+        let mut worst = 0.0_f64;
+        for h in [0.1_f64, 0.3, 1.0 / 3.0, 0.7, 1e-3, 123.456] {
+            for n in [1_usize, 3, 10, 97, 1000, 4099, 100_000, 1_000_003] {
+                let span = h * n as f64;
+                for (t0, t1) in [(0.0, span), (span, 0.0)] {
+                    let g = TimeGrid::with_max_step(t0, t1, h);
+                    assert_eq!(g.n_steps(), n, "{n} steps of {h}");
+                }
+                worst = worst.max((span / h - n as f64).abs() / n as f64);
+            }
+        }
+        assert!(worst > 0.0, "some spans are not exact multiples");
+    }
+
+    #[test]
     fn max_step_grid_shortens_the_last_step_in_both_directions() {
         for (t0, t1) in [(0.0_f64, 1.0_f64), (1.0, 0.0), (-0.2, 2.3)] {
             let g = TimeGrid::with_max_step(t0, t1, 0.3);
