@@ -55,7 +55,7 @@ pub(crate) const ENTRY_GRAD_LEN: usize = 10;
 
 /// Per-pixel compositing state of one tile, group-major (see
 /// [`group_lane`](crate::tile_lanes::group_lane)).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub(crate) struct TileState<T> {
     t: TileLanes<T>,
     color: [TileLanes<T>; 3],
@@ -246,7 +246,7 @@ impl<T: Real> TiledRasterizer<T> {
             ExpMode::Exact => forward_tile::<T, false>,
         };
         for_each_item(par, &mut self.tiles[..n_tiles], |tile, st| {
-            kernel(st, tile, &grid, bins.tile_entries(tile), splats);
+            kernel(st, tile, &grid, bins.tile_entries(tile), splats, SEGMENT);
         });
 
         // Write the tile states into the row-major images, one band of tile rows per item.
@@ -332,13 +332,16 @@ fn resize_output<T: Real>(out: &mut RasterOutput<T>, w: usize, h: usize) {
     out.last.resize(n, 0);
 }
 
-/// Composites one tile (see the module docs); `FAST` selects [`ExpMode::Fast`].
+/// Composites one tile (see the module docs); `FAST` selects [`ExpMode::Fast`]. The list
+/// is walked in segments of `segment` entries ([`SEGMENT`]; the tests take shorter ones to
+/// cover the passage from one segment to the next without millions of Gaussians).
 fn forward_tile<T: Real, const FAST: bool>(
     st: &mut TileState<T>,
     tile: usize,
     grid: &TileGrid,
     list: &[u32],
     splats: &[TileSplat<T>],
+    segment: usize,
 ) {
     let px = grid.tile_pixels(tile);
     let (w_in, h_in) = ((px.x1 - px.x0) as usize, (px.y1 - px.y0) as usize);
@@ -361,7 +364,7 @@ fn forward_tile<T: Real, const FAST: bool>(
     let mut remaining = w_in * h_in;
     lane_centres(px, &mut st.xs, &mut st.ys);
 
-    for (seg_index, seg) in list.chunks(SEGMENT).enumerate() {
+    for (seg_index, seg) in list.chunks(segment).enumerate() {
         let mut pos = T::ZERO;
         for &k in seg {
             pos += T::ONE;
@@ -385,7 +388,7 @@ fn forward_tile<T: Real, const FAST: bool>(
         for g in 0..GROUPS {
             for i in 0..LANES {
                 if st.seg_last[g][i] > T::ZERO {
-                    let j = seg_index * SEGMENT + to_index(st.seg_last[g][i]) - 1;
+                    let j = seg_index * segment + to_index(st.seg_last[g][i]) - 1;
                     st.last[g][i] = list[j] + 1;
                     st.seg_last[g][i] = T::ZERO;
                 }
@@ -477,5 +480,34 @@ mod tests {
         assert_eq!(lanes_in_image(&grid, 1), 4 * 16, "right edge");
         assert_eq!(lanes_in_image(&grid, 2), 16, "bottom edge");
         assert_eq!(lanes_in_image(&grid, 3), 4, "corner");
+    }
+
+    #[test]
+    fn short_segments_composite_like_one() {
+        // Each tile's state, walked in segments of 1 to 7 entries, is bitwise the state of
+        // one segment: the passage between segments keeps T, the sums, the counts, the stops
+        // and the last contributors. Scenes where most pixels stop and where few do.
+        for (n, size, seed) in [(400, 40, 3), (150, 37, 8), (60, 21, 5)] {
+            let (splats, cam) = crate::benchmark_scene::<f64>(n, size, seed);
+            let pre = crate::preprocess(&splats, &cam, &crate::RenderOptions::default());
+            let mut rast = TiledRasterizer::<f64>::new();
+            rast.prepare(&pre);
+            let grid = rast.bins.grid();
+            let mut longest = 0;
+            for tile in 0..grid.n_tiles() {
+                let list = rast.bins.tile_entries(tile);
+                longest = longest.max(list.len());
+                let run = |segment| {
+                    let mut st = TileState::new();
+                    forward_tile::<f64, true>(&mut st, tile, &grid, list, &rast.splats, segment);
+                    st
+                };
+                let whole = run(SEGMENT);
+                for segment in [1, 2, 3, 7] {
+                    assert!(run(segment) == whole, "tile {tile}: segments of {segment}");
+                }
+            }
+            assert!(longest > 20, "{longest} entries in the longest list");
+        }
     }
 }

@@ -2,8 +2,9 @@
 //! renders the background, the radius rule does not change the image, the densification
 //! statistics are the norms of the reference 2D-mean gradients, the backward is the adjoint
 //! of a dual-number forward, `render_tiled_vjp` matches `render_vjp` on the parameters, the
-//! backward reuses the forward's binning only when it would bin the same, and a reused
-//! output follows the image size (empty ones included).
+//! backward reuses the forward's binning only when it would bin the same, a reused output
+//! follows the image size (empty ones included), and every pixel of a partial edge tile can
+//! stop.
 
 use crate::tiled_common;
 
@@ -11,8 +12,8 @@ use evogs_math::diff::vjp_dot_test;
 use evogs_math::{Dual, Par, Real, Vec2, Vec3};
 use evogs_splat::{
     Binning, DensifyStats, ExpMode, PixelGrad, Preprocessed, RadiusMode, RasterInputGrad,
-    RenderOptions, Splats, TileGrid, TiledRasterizer, benchmark_scene, preprocess, render,
-    render_tiled, render_tiled_vjp, render_vjp,
+    RenderOptions, Splats, TileGrid, TiledRasterizer, benchmark_scene, preprocess, rasterize_ref,
+    render, render_tiled, render_tiled_vjp, render_vjp,
 };
 use tiled_common::{camera, cotangents, rel_err, scene};
 
@@ -437,4 +438,25 @@ fn fresh_entries(pre: &Preprocessed<f64>) -> usize {
     let mut b = Binning::default();
     b.bin(pre);
     b.n_entries()
+}
+
+#[test]
+fn every_pixel_of_partial_edge_tiles_can_stop() {
+    // Images whose edge tiles are partial, under so many opaque Gaussians that every pixel
+    // stops: the tile counts down only its pixels inside the image, and the result is the
+    // reference's.
+    for (w, h, seed) in [(37, 21, 1), (20, 17, 2), (33, 40, 3)] {
+        let (splats, cam) = scene(w, h, 1500, 0b11000, seed);
+        let opts = RenderOptions::<f64>::default();
+        let pre = preprocess(&splats, &cam, &opts);
+        let out = TiledRasterizer::new().forward(&pre, opts.background, Par::Seq);
+        assert!(
+            out.terminated.iter().all(|&t| t),
+            "{w}×{h}: every pixel stopped"
+        );
+        assert!(
+            out == rasterize_ref(&pre, opts.background),
+            "{w}×{h}: the reference's"
+        );
+    }
 }
