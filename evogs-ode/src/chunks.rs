@@ -73,3 +73,80 @@ where
         p0 += np;
     }
 }
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+    use std::sync::Mutex;
+    use std::vec::Vec;
+
+    /// Every `Par`, with the pool where the feature is on.
+    fn pars() -> Vec<Par> {
+        let mut p = std::vec![Par::Seq, Par::best()];
+        p.dedup();
+        p
+    }
+
+    /// Checks that the chunks `(first, count)` seen cover `0..count` in order of `CHUNK`.
+    fn check_cover(mut seen: Vec<(usize, usize)>, count: usize, what: &str) {
+        seen.sort_unstable();
+        let want: Vec<(usize, usize)> = (0..count)
+            .step_by(CHUNK)
+            .map(|p0| (p0, CHUNK.min(count - p0)))
+            .collect();
+        assert_eq!(seen, want, "{what}: chunks");
+    }
+
+    #[test]
+    fn chunks_cover_every_particle_once_whatever_the_widths() {
+        // Widths of zero (a particle with no entries in one buffer) must not reach the
+        // pool's chunking, whose chunk size would be 0.
+        for par in pars() {
+            for count in [0, 1, CHUNK - 1, CHUNK, CHUNK + 1, 3 * CHUNK + 5] {
+                for (a_per, b_per) in [(0, 0), (0, 2), (3, 0), (1, 1), (3, 2)] {
+                    let what = std::format!("{par:?}, {count} particles, widths {a_per}, {b_per}");
+                    let mut a = std::vec![0_usize; count * a_per];
+                    let mut b = std::vec![0_usize; count * b_per];
+                    let seen = Mutex::new(Vec::new());
+                    for_chunks2(
+                        par,
+                        count,
+                        &mut a,
+                        a_per,
+                        &mut b,
+                        b_per,
+                        |p0, np, ca, cb| {
+                            assert!(ca.len() == np * a_per && cb.len() == np * b_per, "{what}");
+                            for (i, v) in ca.iter_mut().enumerate() {
+                                *v = p0 + i / a_per;
+                            }
+                            for (i, v) in cb.iter_mut().enumerate() {
+                                *v = p0 + i / b_per;
+                            }
+                            seen.lock().expect("lock").push((p0, np));
+                        },
+                    );
+                    check_cover(seen.into_inner().expect("lock"), count, &what);
+                    let owner =
+                        |v: &[usize], per: usize| v.iter().enumerate().all(|(i, &p)| p == i / per);
+                    assert!(
+                        owner(&a, a_per.max(1)) && owner(&b, b_per.max(1)),
+                        "{what}: owners"
+                    );
+
+                    let mut a = std::vec![0_usize; count * a_per];
+                    let seen = Mutex::new(Vec::new());
+                    for_chunks1(par, count, &mut a, a_per, |p0, np, ca| {
+                        assert!(ca.len() == np * a_per, "{what}");
+                        for (i, v) in ca.iter_mut().enumerate() {
+                            *v = p0 + i / a_per;
+                        }
+                        seen.lock().expect("lock").push((p0, np));
+                    });
+                    check_cover(seen.into_inner().expect("lock"), count, &what);
+                    assert!(owner(&a, a_per.max(1)), "{what}: owners, one buffer");
+                }
+            }
+        }
+    }
+}
