@@ -149,6 +149,7 @@ mod tests {
     use super::*;
     use alloc::boxed::Box;
     use alloc::vec;
+    use alloc::vec::Vec;
 
     /// `f(t, y; a) = a·y + t`, whose VJP reads `a` from the record (so a VJP that got no
     /// record, or a record nobody wrote, shows).

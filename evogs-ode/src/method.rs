@@ -141,6 +141,7 @@ impl FromStr for Method {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use alloc::string::ToString;
 
     #[test]
     fn names_round_trip_and_orders_match_the_tableaux() {
