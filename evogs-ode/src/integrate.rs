@@ -212,3 +212,26 @@ pub fn integrate_trajectory<T: Real, F: VectorField<T> + ?Sized>(
         final_state: y,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Checkpointing;
+
+    #[test]
+    fn sqrt_checkpointing_is_the_ceiling_of_the_square_root() {
+        for (n, k) in [
+            (0, 1),
+            (1, 1),
+            (2, 2),
+            (4, 2),
+            (5, 3),
+            (16, 4),
+            (17, 5),
+            (1_000_000, 1000),
+        ] {
+            assert_eq!(Checkpointing::sqrt(n), Checkpointing::Every(k), "{n} steps");
+        }
+        assert_eq!(Checkpointing::StoreAll.interval(), 1, "every state");
+        assert_eq!(Checkpointing::Every(7).interval(), 7, "every 7th");
+    }
+}
