@@ -215,7 +215,29 @@ pub fn integrate_trajectory<T: Real, F: VectorField<T> + ?Sized>(
 
 #[cfg(test)]
 mod tests {
-    use super::Checkpointing;
+    use super::{Checkpointing, Trajectory};
+    use crate::TimeGrid;
+    use alloc::vec;
+
+    #[test]
+    fn a_trajectory_hands_back_the_states_it_holds_and_no_others() {
+        // Four steps of a two-entry state: states 0..4 and the final one.
+        let states = vec![0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5];
+        let grid = TimeGrid::uniform(0.0_f64, 1.0, 4);
+        let t = Trajectory::store_all(grid, 2, states, vec![4.0, 4.5]);
+        assert_eq!(t.initial_state(), [0.0, 0.5], "y(t0)");
+        assert_eq!(t.final_state(), [4.0, 4.5], "y(t1)");
+        assert_eq!(t.state(2), Some(&[2.0, 2.5][..]), "index 2");
+        assert_eq!(
+            t.state(4),
+            Some(&[4.0, 4.5][..]),
+            "index N: the final state"
+        );
+        for k in [5, 6, 100] {
+            assert_eq!(t.state(k), None, "index {k} beyond N");
+        }
+        assert_eq!(t.stored_states(), 5, "four checkpoints and the final state");
+    }
 
     #[test]
     fn sqrt_checkpointing_is_the_ceiling_of_the_square_root() {
