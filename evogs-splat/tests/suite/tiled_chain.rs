@@ -13,7 +13,7 @@ use evogs_math::{Dual, Par, Real, Vec2, Vec3};
 use evogs_splat::{
     Binning, DensifyStats, ExpMode, PixelGrad, Preprocessed, RadiusMode, RasterInputGrad,
     RenderOptions, Splats, TileGrid, TiledRasterizer, benchmark_scene, preprocess, rasterize_ref,
-    render, render_tiled, render_tiled_vjp, render_vjp,
+    rasterize_tiled_vjp, render, render_tiled, render_tiled_vjp, render_vjp,
 };
 use tiled_common::{camera, cotangents, rel_err, scene};
 
@@ -459,4 +459,37 @@ fn every_pixel_of_partial_edge_tiles_can_stop() {
             "{w}×{h}: the reference's"
         );
     }
+}
+
+#[test]
+fn the_one_call_vjp_is_the_rasterizers_backward() {
+    let (splats, cam) = scene(30, 20, 40, 0, 4);
+    let opts = RenderOptions::<f64>::default();
+    let pre = preprocess(&splats, &cam, &opts);
+    let mut rast = TiledRasterizer::new();
+    let out = rast.forward(&pre, opts.background, Par::Seq);
+    let (rgb, alpha, depth) = cotangents(30 * 20, 4);
+    let d = PixelGrad {
+        rgb: &rgb,
+        alpha: Some(&alpha),
+        depth: Some(&depth),
+    };
+    let (mut g1, mut s1) = (RasterInputGrad::zeros(40), DensifyStats::default());
+    let bg1 = TiledRasterizer::new().backward(
+        &pre,
+        opts.background,
+        &out,
+        &d,
+        Par::Seq,
+        &mut g1,
+        &mut s1,
+    );
+    let (mut g2, mut s2) = (RasterInputGrad::zeros(40), DensifyStats::default());
+    let bg2 = rasterize_tiled_vjp(&pre, opts.background, &out, &d, Par::Seq, &mut g2, &mut s2);
+    let (with_rast, one_call) = ((g1, s1, bg1), (g2, s2, bg2));
+    assert!(
+        with_rast.2.iter().all(|&b| b != 0.0),
+        "a background gradient"
+    );
+    assert!(one_call == with_rast, "the same gradients");
 }
