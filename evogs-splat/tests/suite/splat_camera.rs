@@ -27,6 +27,15 @@ const C2W: [[f64; 4]; 4] = [
     [0.0, 0.0, 0.0, 1.0],
 ];
 const FOV_X: f64 = 0.8726646259971648;
+/// The identity view matrix: a camera at the origin looking along +z.
+const ID: [[f64; 4]; 4] = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
+/// Intrinsics of a 64 × 48 image.
+const K: [[f64; 3]; 3] = [[50.0, 0.0, 32.0], [0.0, 50.0, 24.0], [0.0, 0.0, 1.0]];
 
 #[test]
 fn dnerf_conversion_flips_y_and_z_then_inverts() {
@@ -138,13 +147,8 @@ fn invalid_cameras_are_typed_errors() {
     assert_eq!(bad(C2W, 3.2, 100), Some(CameraError::BadIntrinsics));
     assert_eq!(bad(C2W, f64::NAN, 100), Some(CameraError::NonFinite));
     assert_eq!(bad(C2W, FOV_X, 0), Some(CameraError::EmptyImage));
-    let id = [
-        [1.0, 0.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0, 0.0],
-        [0.0, 0.0, 1.0, 0.0],
-        [0.0, 0.0, 0.0, 1.0],
-    ];
-    let k = [[50.0, 0.0, 32.0], [0.0, 50.0, 24.0], [0.0, 0.0, 1.0]];
+    let id = ID;
+    let k = K;
     assert_eq!(
         PinholeCamera::from_viewmat(id, k, 64, 48, 1.0, 0.5).err(),
         Some(CameraError::BadClipRange)
@@ -197,7 +201,7 @@ fn validation_checks_every_entry_and_is_inclusive_at_the_tolerance() {
     assert!(dnerf(C2W, 3.1).is_ok(), "just under π");
 
     // A shear has determinant 1 exactly; only RᵀR − I (its entry (0, 1) is the shear) shows it.
-    let k = [[50.0, 0.0, 32.0], [0.0, 50.0, 24.0], [0.0, 0.0, 1.0]];
+    let k = K;
     let sheared = |a: f64| {
         let v = [
             [1.0, a, 0.0, 0.1],
@@ -216,12 +220,7 @@ fn validation_checks_every_entry_and_is_inclusive_at_the_tolerance() {
     );
 
     // Every entry that is read is checked for finiteness, alone.
-    let id = [
-        [1.0, 0.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0, 0.0],
-        [0.0, 0.0, 1.0, 0.0],
-        [0.0, 0.0, 0.0, 1.0],
-    ];
+    let id = ID;
     let view = |v, k, near, far| PinholeCamera::from_viewmat(v, k, 64, 48, near, far).err();
     assert_eq!(view(id, k, 0.01, 100.0), None, "valid");
     for (i, j) in [(0, 0), (1, 1), (0, 2), (1, 2)] {
@@ -262,7 +261,7 @@ fn validation_checks_every_entry_and_is_inclusive_at_the_tolerance() {
 #[test]
 fn view_matrix_validation_checks_every_condition_alone() {
     const TOL: f64 = 1e-4;
-    let k = [[50.0, 0.0, 32.0], [0.0, 50.0, 24.0], [0.0, 0.0, 1.0]];
+    let k = K;
     let v = [
         [1.0, 0.0, 0.0, 0.1],
         [0.0, 1.0, 0.0, 0.2],
@@ -340,31 +339,20 @@ fn look_at_checks_each_input_and_its_degeneracy_test_is_scale_free() {
     let look = |eye, target, up, w, h| PinholeCamera::<f64>::look_at(eye, target, up, 0.8, w, h);
     assert!(look(eye, target, up, 8, 6).is_ok(), "valid");
     let nan = Vec3::new(0.0, f64::NAN, 0.0);
-    assert_eq!(
-        look(nan, target, up, 8, 6).err(),
-        Some(CameraError::NonFinite),
-        "eye"
-    );
-    assert_eq!(
-        look(eye, nan, up, 8, 6).err(),
-        Some(CameraError::NonFinite),
-        "target"
-    );
-    assert_eq!(
-        look(eye, target, nan, 8, 6).err(),
-        Some(CameraError::NonFinite),
-        "up"
-    );
-    assert_eq!(
-        look(eye, target, up, 0, 6).err(),
-        Some(CameraError::EmptyImage),
-        "no width"
-    );
-    assert_eq!(
-        look(eye, target, up, 8, 0).err(),
-        Some(CameraError::EmptyImage),
-        "no height"
-    );
+    for (case, what, want) in [
+        ((nan, target, up, 8, 6), "eye", CameraError::NonFinite),
+        ((eye, nan, up, 8, 6), "target", CameraError::NonFinite),
+        ((eye, target, nan, 8, 6), "up", CameraError::NonFinite),
+        ((eye, target, up, 0, 6), "no width", CameraError::EmptyImage),
+        (
+            (eye, target, up, 8, 0),
+            "no height",
+            CameraError::EmptyImage,
+        ),
+    ] {
+        let (e, t, u, w, h) = case;
+        assert_eq!(look(e, t, u, w, h).err(), Some(want), "{what}");
+    }
 
     // `up` nearly parallel to the view: accepted while |fwd × up| > 1e-12 |fwd| |up|, at
     // every scale of the distance and of `up`, and giving the same camera at every scale.
