@@ -170,11 +170,9 @@ mod tests {
                 *d = self.a * v + t;
             }
         }
-        fn vjp(&mut self, _t: f64, y: &[f64], w: &[f64], d_y: &mut [f64], d_params: &mut [f64]) {
-            for ((d, &v), &wi) in d_y.iter_mut().zip(y).zip(w) {
-                *d += self.a * wi;
-                d_params[0] += v * wi;
-            }
+        fn vjp(&mut self, t: f64, y: &[f64], w: &[f64], d_y: &mut [f64], d_params: &mut [f64]) {
+            let a = self.a;
+            self.vjp_recorded(t, y, &a, w, d_y, d_params);
         }
         fn eval_recorded(&mut self, t: f64, y: &[f64], dydt: &mut [f64], record: &mut f64) {
             *record = self.a;
