@@ -98,6 +98,11 @@ fn the_recorded_adjoint_is_bitwise_the_plain_one_for_every_capacity() {
                 traj.final_state() == plain.final_state(),
                 "{method} {capacity}: trajectory"
             );
+            assert_eq!(
+                traj.stored_states(),
+                plain.stored_states(),
+                "{method} {capacity}: every state once, no more"
+            );
             let (mut e_y0, mut e_p) = (vec![0.0; n], vec![0.0; f.n_params()]);
             discrete_adjoint_recorded(
                 &mut f, &mut st, &traj, &mut tape, &d_final, &mut e_y0, &mut e_p,
@@ -154,4 +159,75 @@ fn a_tape_of_another_run_is_refused() {
         &mut d_y0,
         &mut d_p,
     );
+}
+
+thread_local! {
+    /// Records made by [`Counted::default`] on this thread.
+    static RECORDS_MADE: core::cell::Cell<usize> = const { core::cell::Cell::new(0) };
+}
+
+/// A record that counts how many the tape makes: the tape's memory budget is in records.
+struct Counted;
+
+impl Default for Counted {
+    fn default() -> Self {
+        RECORDS_MADE.with(|n| n.set(n.get() + 1));
+        Self
+    }
+}
+
+/// [`Recording`]'s field with a counted record.
+struct CountedField(CoupledField<f64>);
+
+impl VectorField<f64> for CountedField {
+    type Record = Counted;
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn layout(&self) -> StateLayout {
+        self.0.layout()
+    }
+    fn n_params(&self) -> usize {
+        self.0.n_params()
+    }
+    fn eval(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
+        self.0.eval(t, y, dydt);
+    }
+    fn vjp(&mut self, t: f64, y: &[f64], w: &[f64], d_y: &mut [f64], d_params: &mut [f64]) {
+        self.0.vjp(t, y, w, d_y, d_params);
+    }
+}
+
+#[test]
+fn the_tape_makes_no_more_records_than_its_capacity_and_the_steps_it_drops() {
+    let count = 2;
+    let layout = CoupledField::<f64>::layout_for(count);
+    let y0 = random_state(&layout, 3);
+    let n = layout.tangent_len();
+    let grid = TimeGrid::uniform(0.0, 1.0, 10);
+    let mut f = CountedField(CoupledField::random(count, 4));
+    let mut st = Stepper::new(Method::Rk4, f.layout());
+    let made = || RECORDS_MADE.with(core::cell::Cell::get);
+    // (capacity, records the forward makes, scratch records the reverse makes)
+    for (capacity, forward, scratch) in [(8, 8, 4), (40, 40, 0), (41, 40, 0), (3, 0, 4)] {
+        let mut tape = StageTape::new(capacity);
+        assert_eq!(tape.capacity(), capacity);
+        let before = made();
+        let traj = integrate_recorded(&mut f, &mut st, &grid, &y0, &mut tape);
+        assert_eq!(made() - before, forward, "capacity {capacity}: forward");
+        let before = made();
+        let (mut d_y0, mut d_p) = (vec![0.0; n], vec![0.0; f.n_params()]);
+        discrete_adjoint_recorded(
+            &mut f,
+            &mut st,
+            &traj,
+            &mut tape,
+            &vec![1.0; n],
+            &mut d_y0,
+            &mut d_p,
+        );
+        assert_eq!(made() - before, scratch, "capacity {capacity}: reverse");
+        tape.set_capacity(capacity / 2);
+        assert_eq!(tape.capacity(), capacity / 2);
+    }
 }
