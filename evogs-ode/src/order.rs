@@ -323,4 +323,26 @@ mod tests {
             assert!((p - 3.0).abs() < 1e-12, "successive order {p}");
         }
     }
+
+    #[test]
+    fn successive_orders_are_nan_where_undefined() {
+        let inf = f64::INFINITY;
+        // (h₀, h₁, e₀, e₁): an error that is not positive and finite, or two equal steps.
+        for (h0, h1, e0, e1) in [
+            (1.0, 0.5, 0.0, 1e-3),
+            (1.0, 0.5, 1e-3, 0.0),
+            (1.0, 0.5, inf, 1e-3),
+            (1.0, 0.5, 1e-3, inf),
+            (1.0, 0.5, -1e-3, 1e-3),
+            (1.0, 0.5, f64::NAN, 1e-3),
+            (0.5, 0.5, 2e-3, 1e-3),
+            (-0.5, -0.5, 2e-3, 1e-3),
+        ] {
+            let p = successive_orders(&[h0, h1], &[e0, e1]);
+            assert!(p.len() == 1 && p[0].is_nan(), "{h0} {h1} {e0} {e1}: {p:?}");
+        }
+        // Defined: the order of the pair, whichever way h runs.
+        assert_eq!(successive_orders(&[1.0, 0.5], &[4e-3, 1e-3]), [2.0]);
+        assert_eq!(successive_orders(&[0.5, 1.0], &[1e-3, 4e-3]), [2.0]);
+    }
 }
