@@ -96,7 +96,9 @@ pub fn estimate_order(hs: &[f64], errors: &[f64]) -> Option<OrderEstimate> {
 /// Estimates the convergence order from step sizes `hs` and errors `errors` (same
 /// length, any monotone order of h).
 ///
-/// Returns `None` if fewer than two consecutive points lie inside the window.
+/// Returns `None` if fewer than two consecutive points lie inside the window, or if no
+/// successive order there is within the tolerance of the reference (a step size repeated,
+/// or a tolerance that admits nothing).
 ///
 /// # Panics
 /// If the slices differ in length.
@@ -138,12 +140,15 @@ pub fn estimate_order_with(
     while last > a && !near(last - 1) {
         last -= 1;
     }
+    if last == a {
+        // No pair is near the reference: it is NaN (steps that repeat) or the tolerance
+        // admits nothing (negative or NaN).
+        return None;
+    }
+    // `near(last − 1)` holds, so the range holds at least that pair.
     let mut first = last;
     while first > a && near(first - 1) {
         first -= 1;
-    }
-    if first == last {
-        first = last - 1;
     }
     // Least-squares slope of log e against log h.
     let m = f64::from(u32::try_from(last - first + 1).unwrap_or(u32::MAX));
@@ -344,5 +349,88 @@ mod tests {
         // Defined: the order of the pair, whichever way h runs.
         assert_eq!(successive_orders(&[1.0, 0.5], &[4e-3, 1e-3]), [2.0]);
         assert_eq!(successive_orders(&[0.5, 1.0], &[1e-3, 4e-3]), [2.0]);
+    }
+
+    /// Errors `1e-3·hᵖ` at `h = 2⁻ᵏ`, `k = 0..orders.len()`, with `p` per point; `None` puts
+    /// the point above the window (1.0).
+    fn errors_of(orders: &[Option<i32>]) -> (Vec<f64>, Vec<f64>) {
+        let h = hs(orders.len());
+        let e = h
+            .iter()
+            .zip(orders)
+            .map(|(h, p)| p.map_or(1.0, |p| 1e-3 * h.powi(p)))
+            .collect();
+        (h, e)
+    }
+
+    #[test]
+    fn the_longest_run_inside_the_window_is_fitted_the_finer_on_ties() {
+        let (o, x) = (None, Some(2));
+        // (orders, the run fitted)
+        for (orders, run) in [
+            (vec![o, x, x, x, x, o, x, x], (1, 4)),
+            (vec![o, x, x, o, x, x, x, x], (4, 7)),
+            (vec![o, x, x, x, o, x, x, x], (5, 7)),
+            (vec![x, x, x, o, x, x, x, o], (4, 6)),
+            (vec![o, o, o, o, o, x, x, o], (5, 6)),
+        ] {
+            let (h, e) = errors_of(&orders);
+            let est = estimate_order(&h, &e).expect("a run");
+            assert_eq!((est.first, est.last), run, "{orders:?}");
+            assert!((est.order - 2.0).abs() < 1e-12, "{orders:?}: {}", est.order);
+        }
+    }
+
+    #[test]
+    fn a_step_of_zero_is_outside_the_window() {
+        let (mut h, mut e) = errors_of(&[Some(2); 6]);
+        h.push(0.0);
+        e.push(1e-5);
+        let est = estimate_order(&h, &e).expect("a run");
+        assert_eq!((est.first, est.last), (0, 5));
+        // The successive order of a pair with h = 0 is 0 (or NaN), so only the window keeps
+        // it out of a method that does not converge (order 0).
+        let e = vec![1e-3; 7];
+        let est = estimate_order(&h, &e).expect("a run");
+        assert_eq!((est.first, est.last, est.order), (0, 5, 0.0));
+    }
+
+    #[test]
+    fn deviating_pairs_at_the_fine_end_are_trimmed() {
+        // Order 2 throughout, then one pair of order 4 at the fine end: the reference is
+        // the median of the three finest successive orders (2, 2, 4), the last pair goes.
+        let mut orders = vec![Some(2); 6];
+        orders.push(Some(4));
+        let (h, mut e) = errors_of(&orders);
+        e[6] = e[5] / 16.0;
+        let est = estimate_order(&h, &e).expect("a run");
+        assert_eq!((est.first, est.last), (0, 5));
+        assert!((est.order - 2.0).abs() < 1e-12, "{}", est.order);
+        // Of two successive orders the reference is the larger: a run of three points with
+        // orders 2 then 4 keeps the order-4 pair alone.
+        let h = hs(5);
+        let e = [1.0, 1e-3, 2.5e-4, 2.5e-4 / 16.0, 1.0];
+        let est = estimate_order(&h, &e).expect("a run");
+        assert_eq!((est.first, est.last), (2, 3), "{:?}", est.successive);
+        assert!((est.order - 4.0).abs() < 1e-12, "{}", est.order);
+    }
+
+    #[test]
+    fn no_pair_near_the_reference_gives_none() {
+        let (h, e) = errors_of(&[None, Some(2), Some(2), Some(2), None]);
+        for tolerance in [f64::NAN, -1.0] {
+            let window = OrderWindow {
+                tolerance,
+                ..OrderWindow::default()
+            };
+            assert_eq!(estimate_order_with(&h, &e, window), None, "{tolerance}");
+        }
+        // A step repeated throughout: every successive order is NaN.
+        assert_eq!(estimate_order(&[0.5; 4], &[1e-3; 4]), None);
+        // A run of exactly two points: the one pair's order.
+        let (h, e) = errors_of(&[None, Some(3), Some(3), None]);
+        let est = estimate_order(&h, &e).expect("a pair");
+        assert_eq!((est.first, est.last), (1, 2));
+        assert!((est.order - 3.0).abs() < 1e-12, "{}", est.order);
     }
 }
