@@ -433,4 +433,40 @@ mod tests {
         assert_eq!((est.first, est.last), (1, 2));
         assert!((est.order - 3.0).abs() < 1e-12, "{}", est.order);
     }
+
+    #[test]
+    fn a_study_samples_the_eighths_that_are_grid_points() {
+        use crate::Method;
+        use crate::VectorField;
+        use crate::problems::{ExactProblem, Logistic};
+        let mut problem = Logistic::default();
+        // (N, the grid indices of the eighths of the interval that are grid points)
+        let cases: [(usize, &[usize]); 3] = [
+            (12, &[3, 6, 9, 12]),
+            (5, &[5]),
+            (16, &[2, 4, 6, 8, 10, 12, 14, 16]),
+        ];
+        let ns: Vec<usize> = cases.iter().map(|c| c.0).collect();
+        let study = convergence_study(&mut problem, Method::Rk4, &ns);
+        let layout = problem.layout();
+        let mut stepper = Stepper::new(Method::Rk4, layout);
+        for (i, (n, ks)) in cases.into_iter().enumerate() {
+            let grid = TimeGrid::uniform(problem.t0(), problem.t_end(), n);
+            let mut errors = Vec::new();
+            for &k in ks {
+                let mut y = vec![0.0; layout.ambient_len()];
+                let mut exact = y.clone();
+                problem.initial_state(&mut y);
+                integrate_steps(&mut problem, &mut stepper, &grid, 0, k, &mut y);
+                problem.exact(grid.time(k), &mut exact);
+                errors.push(problem.error(&y, &exact));
+            }
+            let worst = errors.iter().copied().fold(0.0, f64::max);
+            assert_eq!(study.hs[i], grid.h().abs());
+            assert_eq!(study.errors[i], worst, "N = {n}");
+            assert_eq!(study.end_errors[i], errors[errors.len() - 1], "N = {n}");
+        }
+        assert_eq!(study.end_errors.len(), 3);
+        assert_eq!(study.ns, ns);
+    }
 }
