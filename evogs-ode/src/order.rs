@@ -462,9 +462,14 @@ mod tests {
                 errors.push(problem.error(&y, &exact));
             }
             let worst = errors.iter().copied().fold(0.0, f64::max);
-            assert_eq!(study.hs[i], grid.h().abs());
-            assert_eq!(study.errors[i], worst, "N = {n}");
-            assert_eq!(study.end_errors[i], errors[errors.len() - 1], "N = {n}");
+            let bits = |v: f64| v.to_bits();
+            assert_eq!(bits(study.hs[i]), bits(grid.h().abs()));
+            assert_eq!(bits(study.errors[i]), bits(worst), "N = {n}");
+            assert_eq!(
+                bits(study.end_errors[i]),
+                bits(errors[errors.len() - 1]),
+                "N = {n}"
+            );
         }
         assert_eq!(study.end_errors.len(), 3);
         assert_eq!(study.ns, ns);
