@@ -69,8 +69,10 @@ impl<T: Real> Default for ProjectOptions<T> {
 
 /// The projection of one Gaussian.
 ///
-/// For culled Gaussians (`valid == false`) the float fields still hold the plain formulas
-/// where they are finite (zero otherwise, e.g. for `t_z = 0`), and `radii == [0, 0]`.
+/// Every float is finite. For culled Gaussians (`valid == false`, `radii == [0, 0]`) the
+/// float fields still hold the plain formulas when those are finite; if the pixel
+/// coordinates, the 2D covariance, the conic or the compensation is not (`t_z = 0`, an
+/// overflow), those four are zero, and the camera-space mean and depth are kept when finite.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Projected<T> {
     /// Camera-space mean `R μ + t_v`.
@@ -81,9 +83,11 @@ pub struct Projected<T> {
     pub depth: T,
     /// 2D covariance before the low-pass dilation.
     pub cov2d: Sym2<T>,
-    /// Inverse of the dilated 2D covariance, `[a, b, c]`.
+    /// Inverse of the dilated 2D covariance, `[a, b, c]` (zero when its determinant is not
+    /// positive).
     pub conic: [T; 3],
-    /// `sqrt(max(0, det(cov2d)/det(cov2d + εI)))`.
+    /// `sqrt(max(0, det(cov2d)/det(cov2d + εI)))` (zero when `det(cov2d + εI)` is not
+    /// positive).
     pub compensation: T,
     /// Per-axis radii in pixels (`[0, 0]` if culled).
     pub radii: [u32; 2],

@@ -5,6 +5,7 @@ mod metrics_oracle;
 mod metrics_ssim;
 mod metrics_vjp;
 mod projection_oracle;
+mod projection_rules;
 #[cfg(feature = "proptest")]
 mod properties;
 mod raster_oracle;

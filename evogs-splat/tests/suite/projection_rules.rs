@@ -1,0 +1,145 @@
+//! The projection's rules at their edges: the FOV clamp and the near and far planes are
+//! strict; a dilated 2D covariance whose determinant is zero or negative has a zero conic
+//! (and the Gaussian is culled with its other floats kept); floats that overflow (pixel
+//! coordinates, an f32 2D covariance) cull the Gaussian with every float of the result
+//! finite.
+
+use evogs_math::{Quat, Real, Vec3};
+use evogs_splat::project::FOV_CLAMP_MARGIN;
+use evogs_splat::{PinholeCamera, ProjectOptions, Projected, project};
+
+/// A camera at the origin looking down +z: 64×48 pixels, fx = 64, fy = 48, the principal
+/// point at the centre, near 0.01, far 100.
+fn camera<T: Real>() -> PinholeCamera<T> {
+    let c = T::from_f64;
+    let (o, l) = (T::ZERO, T::ONE);
+    let id = [[l, o, o, o], [o, l, o, o], [o, o, l, o], [o, o, o, l]];
+    let k = [[c(64.0), o, c(32.0)], [o, c(48.0), c(24.0)], [o, o, l]];
+    PinholeCamera::from_viewmat(id, k, 64, 48, c(0.01), c(100.0)).expect("camera")
+}
+
+/// Every float of a projection.
+fn floats<T: Real>(p: &Projected<T>) -> [T; 13] {
+    [
+        p.mean_cam.x,
+        p.mean_cam.y,
+        p.mean_cam.z,
+        p.means2d.x,
+        p.means2d.y,
+        p.depth,
+        p.cov2d.xx,
+        p.cov2d.xy,
+        p.cov2d.yy,
+        p.conic[0],
+        p.conic[1],
+        p.conic[2],
+        p.compensation,
+    ]
+}
+
+/// The FOV clamp is strict, as in gsplat: a ratio exactly at a limit is not clamped (its
+/// Jacobian keeps the `t_x`, `t_y` dependence), the next float beyond it is.
+#[test]
+fn the_fov_clamp_starts_just_beyond_its_limits() {
+    // Every limit is 0.5 + 0.3·0.5 for this camera, formed here as project forms it.
+    let cam = camera::<f64>();
+    let lim = 0.5 + FOV_CLAMP_MARGIN * 0.5;
+    let o = ProjectOptions::default();
+    for (axis, sign) in [(0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)] {
+        for (ratio, clamped) in [
+            (lim, false),
+            (lim.next_up(), true),
+            (lim.next_down(), false),
+        ] {
+            let mut mean = Vec3::new(0.0, 0.0, 1.0);
+            if axis == 0 {
+                mean.x = sign * ratio;
+            } else {
+                mean.y = sign * ratio;
+            }
+            let p = project(mean, Vec3::splat(-1.5), Quat::identity(), 0.9, &cam, &o);
+            let mut expected = [false; 2];
+            expected[axis] = clamped;
+            assert_eq!(p.fov_clamped, expected, "{mean:?}");
+        }
+    }
+}
+
+#[test]
+fn the_near_and_far_planes_are_strict() {
+    let cam = camera::<f64>();
+    let o = ProjectOptions::default();
+    for (depth, valid) in [
+        (cam.near, false),
+        (cam.near.next_up(), true),
+        (cam.far, false),
+        (cam.far.next_down(), true),
+    ] {
+        let mean = Vec3::new(0.0, 0.0, depth);
+        let p = project(mean, Vec3::splat(-3.0), Quat::identity(), 0.9, &cam, &o);
+        assert_eq!(p.valid, valid, "depth {depth}");
+        assert!(p.depth.to_bits() == depth.to_bits(), "depth {depth}");
+    }
+}
+
+#[test]
+fn a_determinant_of_zero_or_below_zeroes_the_conic_and_keeps_the_plain_formulas() {
+    let cam = camera::<f64>();
+    // A needle along x (two scales zero): det A = 0 exactly. With ε = 0, det B = 0; with
+    // ε = −1 and A_xx = 32² > 1, det B = −(A_xx − 1) < 0.
+    let needle = Vec3::new(0.0, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for eps2d in [0.0, -1.0] {
+        let o = ProjectOptions {
+            eps2d,
+            ..ProjectOptions::default()
+        };
+        let mean = Vec3::new(0.25, 0.5, 2.0);
+        let p = project(mean, needle, Quat::identity(), 0.9, &cam, &o);
+        assert!(!p.valid && p.radii == [0, 0], "ε = {eps2d}: culled");
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let zero = [p.conic[0], p.conic[1], p.conic[2], p.compensation];
+        assert_eq!(bits(&zero), bits(&[0.0; 4]), "ε = {eps2d}");
+        // 64·0.25/2 + 32 and 48·0.5/2 + 24; A_xx = (64/2)².
+        let kept = [p.means2d.x, p.means2d.y, p.cov2d.xx, p.cov2d.xy, p.cov2d.yy];
+        assert_eq!(
+            bits(&kept),
+            bits(&[40.0, 36.0, 1024.0, 0.0, 0.0]),
+            "ε = {eps2d}"
+        );
+    }
+}
+
+#[test]
+fn floats_that_overflow_cull_with_every_float_finite() {
+    let cam = camera::<f32>();
+    let o = ProjectOptions::default();
+    // (what, mean, log-scale)
+    for (what, mean, log_scale) in [
+        // x/z = 1e37: fx·x overflows; the clamped Jacobian and the covariance do not.
+        ("pixel x", Vec3::new(1e37, 0.0, 1.0), Vec3::splat(-1.0)),
+        ("pixel y", Vec3::new(0.0, -1e37, 1.0), Vec3::splat(-1.0)),
+        // One scale of 1e18: A_xx = (64·1e18)² overflows f32, A_xy = 0 and A_yy do not.
+        (
+            "covariance",
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(41.45, -1.0, -1.0),
+        ),
+        (
+            "covariance",
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(-1.0, 41.45, -1.0),
+        ),
+    ] {
+        let p = project(mean, log_scale, Quat::identity(), 0.9, &cam, &o);
+        assert!(!p.valid && p.radii == [0, 0], "{what}: culled");
+        assert!(
+            floats(&p).iter().all(|v| v.is_finite()),
+            "{what}: every float finite: {p:?}"
+        );
+        assert_eq!(
+            p.depth.to_bits(),
+            1.0f32.to_bits(),
+            "{what}: the depth is kept"
+        );
+    }
+}
