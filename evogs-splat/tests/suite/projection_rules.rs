@@ -143,3 +143,56 @@ fn floats_that_overflow_cull_with_every_float_finite() {
         );
     }
 }
+
+/// In antialiased mode the opacity-aware radii follow the opacity times the compensation:
+/// `e = min(3.33, sqrt(2 ln(255 o ρ)))`, and `o ρ < 1/255` culls.
+#[test]
+fn antialiased_radii_follow_the_compensated_opacity() {
+    let cam = camera::<f64>();
+    let aa = ProjectOptions {
+        antialiased: true,
+        ..ProjectOptions::default()
+    };
+    let plain = ProjectOptions::default();
+    // A Gaussian of about 0.6 px: ρ ≈ 0.5.
+    let (mean, log_scale) = (Vec3::new(0.1, -0.05, 2.0), Vec3::new(-4.0, -4.2, -3.9));
+    for opacity in [0.9, 0.2, 0.05, 0.02] {
+        let p = project(mean, log_scale, Quat::identity(), opacity, &cam, &aa);
+        let rho = p.compensation;
+        assert!(rho > 0.3 && rho < 0.7, "ρ = {rho}");
+        let extent = f64::min(3.33, (2.0 * (opacity * rho / (1.0 / 255.0)).ln()).sqrt());
+        let radius = |a: f64| (extent * (a + 0.3).sqrt()).ceil().to_bits();
+        let expected = [radius(p.cov2d.xx), radius(p.cov2d.yy)];
+        assert!(p.valid, "o = {opacity}");
+        let radii = p.radii.map(|r| f64::from(r).to_bits());
+        assert_eq!(radii, expected, "o = {opacity}");
+        // Without antialiasing the opacity alone sets them: never smaller.
+        let q = project(mean, log_scale, Quat::identity(), opacity, &cam, &plain);
+        assert!(q.radii[0] >= p.radii[0] && q.radii[1] >= p.radii[1]);
+    }
+    // o ≥ 1/255 but o ρ < 1/255: culled only when antialiased.
+    let opacity = 1.5 / 255.0;
+    let p = project(mean, log_scale, Quat::identity(), opacity, &cam, &aa);
+    assert!(!p.valid && p.radii == [0, 0], "{p:?}");
+    assert!(project(mean, log_scale, Quat::identity(), opacity, &cam, &plain).valid);
+}
+
+/// At an opacity of exactly 1/255 the opacity-aware extent `sqrt(2 ln(255 o))` is zero:
+/// both radii are zero and the Gaussian is culled.
+#[test]
+fn an_opacity_of_exactly_the_threshold_has_no_extent() {
+    let cam = camera::<f64>();
+    let mean = Vec3::new(0.1, -0.05, 2.0);
+    let o = ProjectOptions::default();
+    let p = project(
+        mean,
+        Vec3::splat(-2.0),
+        Quat::identity(),
+        1.0 / 255.0,
+        &cam,
+        &o,
+    );
+    assert!(!p.valid && p.radii == [0, 0], "{p:?}");
+    let above = (1.0_f64 / 255.0).next_up();
+    assert!(project(mean, Vec3::splat(-2.0), Quat::identity(), above, &cam, &o).valid);
+}
