@@ -196,3 +196,33 @@ fn an_opacity_of_exactly_the_threshold_has_no_extent() {
     let above = (1.0_f64 / 255.0).next_up();
     assert!(project(mean, Vec3::splat(-2.0), Quat::identity(), above, &cam, &o).valid);
 }
+
+/// The box `means2d ± radii` must overlap the image strictly: a box that only touches an
+/// edge is culled, one a hair further in is not.
+#[test]
+fn a_box_that_only_touches_the_image_is_culled() {
+    let cam = camera::<f64>();
+    let o = ProjectOptions::default();
+    // A point Gaussian: A = 0, radius ceil(3.30·sqrt(0.3)) = 2 on both axes. Each mean puts
+    // the box's far side exactly on an edge: x = −2 or 66 at depth 2, y = −2 or 50 at
+    // depth 1.5 (64·1.0625/2 = 34, 48·0.8125/1.5 = 26).
+    let point = Vec3::splat(f64::NEG_INFINITY);
+    for (axis, edge) in [(0, -1.0625), (0, 1.0625), (1, -0.8125), (1, 0.8125)] {
+        let depth = if axis == 0 { 2.0 } else { 1.5 };
+        let inward = edge * (1.0 - 1e-12);
+        for (offset, valid) in [(edge, false), (inward, true)] {
+            let mut mean = Vec3::new(0.0, 0.0, depth);
+            if axis == 0 {
+                mean.x = offset;
+            } else {
+                mean.y = offset;
+            }
+            let p = project(mean, point, Quat::identity(), 0.9, &cam, &o);
+            let touching = if axis == 0 { p.means2d.x } else { p.means2d.y };
+            assert_eq!(p.valid, valid, "{mean:?}: {touching}");
+            if valid {
+                assert_eq!(p.radii, [2, 2]);
+            }
+        }
+    }
+}
