@@ -329,3 +329,29 @@ fn closed_forms_solve_their_odes() {
         "energy"
     );
 }
+
+#[test]
+fn parameter_accessors_read_and_write_the_parameters() {
+    let a = vec![1.0, 2.0, 3.0, 4.0];
+    let mut f = LinearField::new(2, a.clone());
+    assert!(f.matrix() == a.as_slice());
+    f.matrix_mut()[1] = -1.0;
+    let mut dydt = [0.0; 2];
+    f.eval(0.0, &[1.0, 1.0], &mut dydt);
+    assert!(dydt.to_vec() == [0.0, 7.0], "{dydt:?}");
+
+    let (n, h) = (3, 4);
+    let mut rng = SplitMix64::new(5);
+    let theta: Vec<f64> = (0..Mlp::<f64>::param_count(n, h))
+        .map(|_| rng.uniform(-1.0, 1.0))
+        .collect();
+    let mut mlp = Mlp::new(n, h, theta.clone());
+    assert!(mlp.params() == theta.as_slice());
+    let (y, mut before, mut after) = ([0.3, -0.2, 0.5], [0.0; 3], [0.0; 3]);
+    mlp.eval(0.4, &y, &mut before);
+    // b3 is the last n parameters: the output's bias.
+    let last = theta.len() - n;
+    mlp.params_mut()[last] += 1.0;
+    mlp.eval(0.4, &y, &mut after);
+    assert!((after[0] - before[0] - 1.0).abs() < 1e-12 && after[1..] == before[1..]);
+}
