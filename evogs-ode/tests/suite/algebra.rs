@@ -35,6 +35,8 @@ fn check_vjp<F: VectorField<f64>>(
     let mut f = make(theta);
     let layout = f.layout();
     let n = layout.tangent_len();
+    assert_eq!(f.dim(), n, "{what}: dim is the layout's tangent length");
+    assert_eq!(f.n_params(), theta.len(), "{what}: n_params");
     let mut rng = SplitMix64::new(99);
     let w: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
     let t = 0.37;
@@ -208,6 +210,21 @@ fn composite_vjps_match_central_differences() {
         .concat(),
         &y,
     );
+}
+
+#[test]
+fn a_scaled_field_follows_its_factor() {
+    let y = state_with_positions(&POS);
+    let mut f = Scaled::new(-1.7, coupled(&CoupledField::<f64>::random(COUNT, 5).theta));
+    let n = f.dim();
+    let (mut before, mut after) = (vec![0.0; n], vec![0.0; n]);
+    f.eval(0.3, &y, &mut before);
+    f.set_factor(3.4);
+    assert!(f.factor().to_bits() == 3.4_f64.to_bits());
+    f.eval(0.3, &y, &mut after);
+    for (a, b) in after.iter().zip(&before) {
+        assert!((a + 2.0 * b).abs() <= 1e-15 * a.abs(), "{a} against −2·{b}");
+    }
 }
 
 /// The same generic field run on dual numbers gives the exact JVP: the dot-product test
