@@ -12,7 +12,7 @@ use evogs_math::{Dual, Quat, Real, Vec3};
 use evogs_ode::algebra::{
     Edge, FrameError, Mask, Mix, ParticleFrame, RigidRotation, Scaled, Sum, Translation,
 };
-use evogs_ode::{Method, Stepper, TimeGrid, VectorField, integrate};
+use evogs_ode::{Block, Method, StateLayout, Stepper, TimeGrid, VectorField, integrate};
 
 const COUNT: usize = 4;
 
@@ -324,6 +324,47 @@ fn masks_have_the_documented_values() {
         Err(FrameError::NoSuchBlock(9)),
         "range"
     );
+}
+
+/// A frame finds its blocks wherever they sit in the particle, and its errors name the block.
+#[test]
+fn a_frame_finds_its_blocks_wherever_they_sit() {
+    // [So3, Euclidean(2), Euclidean(3)]: the position starts at ambient entry 4 + 2 and
+    // tangent entry 3 + 2 of a particle of 9 ambient, 8 tangent entries.
+    let layout = StateLayout::particles(&[Block::So3, Block::Euclidean(2), Block::Euclidean(3)], 3);
+    let frame = ParticleFrame::new(layout, 2, Some(0)).expect("frame");
+    for p in 0..3 {
+        assert_eq!(frame.position_ambient(p), 9 * p + 6);
+        assert_eq!(frame.position_tangent(p), 8 * p + 5);
+        assert_eq!(frame.rotation_tangent(p), Some(8 * p));
+    }
+    let rotation = frame.rotation_span().expect("a rotation");
+    assert_eq!(
+        (rotation.block, rotation.ambient, rotation.tangent),
+        (Block::So3, 0, 0)
+    );
+    assert_eq!(
+        ParticleFrame::new(layout, 2, None)
+            .expect("frame")
+            .rotation_span(),
+        None
+    );
+    for (error, message) in [
+        (
+            FrameError::NoSuchBlock(7),
+            "block 7 is not in the particle pattern",
+        ),
+        (
+            FrameError::NotAPosition(1),
+            "block 1 is not a 3D position (Euclidean(3))",
+        ),
+        (
+            FrameError::NotARotation(2),
+            "block 2 is not a rotation (So3)",
+        ),
+    ] {
+        assert_eq!(error.to_string(), message);
+    }
 }
 
 /// An injected rotation turns orientations exactly (RKMK integrates a constant world rate
