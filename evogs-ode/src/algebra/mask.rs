@@ -70,7 +70,9 @@ impl<T: Real> Mask<T> {
         Self::Weights(w)
     }
 
-    /// The signed distance `d(x)` and its gradient (`None` for explicit weights).
+    /// The signed distance `d(x)` and its gradient (`None` for explicit weights). Where the
+    /// gradient is not defined, one of its one-sided values is given (on a box's medial
+    /// planes) or zero (at a sphere's centre), never NaN.
     #[must_use]
     pub fn signed_distance(&self, x: Vec3<T>) -> Option<(T, Vec3<T>)> {
         match self {

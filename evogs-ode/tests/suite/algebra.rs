@@ -295,6 +295,18 @@ fn masks_have_the_documented_values() {
     );
     let (d, _) = b.signed_distance(Vec3::new(3.0, 3.0, 1.0)).expect("shape");
     assert!((d - 2.0_f64.sqrt()).abs() < 1e-15, "outside a corner edge");
+    // Exactly on a face the distance is 0 and the gradient that face's normal; at a
+    // sphere's centre the gradient is zero: never NaN.
+    let (d, g) = b.signed_distance(Vec3::new(1.0, 2.0, 1.5)).expect("shape");
+    assert!(
+        [d, g.x, g.y, g.z].to_vec() == [0.0, 0.0, 1.0, 0.0],
+        "on a face: {d} {g:?}"
+    );
+    let (d, g) = s.signed_distance(Vec3::new(0.0, 0.0, 0.1)).expect("shape");
+    assert!(
+        [d, g.x, g.y, g.z].to_vec() == [-1.0, 0.0, 0.0, 0.0],
+        "at the centre: {d} {g:?}"
+    );
     assert!(
         b.weight(0, Vec3::new(2.0, 1.0, 1.0)) > 0.5,
         "hard edge includes the surface"
