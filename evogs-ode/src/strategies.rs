@@ -94,3 +94,97 @@ pub fn step_sequence(
         StepSequence::from_sizes(t0, &hs)
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use evogs_math::strategies::sample;
+
+    /// The smallest and largest of some values.
+    fn range(v: impl IntoIterator<Item = f64>) -> (f64, f64) {
+        v.into_iter()
+            .fold((f64::MAX, f64::MIN), |(lo, hi), x| (lo.min(x), hi.max(x)))
+    }
+
+    #[test]
+    fn log_uniform_spans_its_decades() {
+        let (lo, hi) = range(sample(&log_uniform(-8.0, -2.0), 400));
+        assert!(lo >= 1e-8 * (1.0 - 1e-12) && hi <= 1e-2 * (1.0 + 1e-12));
+        assert!(lo < 2e-8 && hi > 5e-3, "[{lo:e}, {hi:e}]");
+    }
+
+    #[test]
+    fn linear_systems_shift_the_diagonal_only() {
+        let (n, r) = (3, 2.0);
+        let systems = sample(&linear_system(n, r), 400);
+        let diagonal = |m: &Vec<f64>| (0..n).map(|i| m[i * n + i]).collect::<Vec<_>>();
+        let off = |m: &Vec<f64>| {
+            (0..n * n)
+                .filter(|k| k % (n + 1) != 0)
+                .map(|k| m[k])
+                .collect::<Vec<_>>()
+        };
+        let (dlo, dhi) = range(systems.iter().flat_map(diagonal));
+        let (olo, ohi) = range(systems.iter().flat_map(off));
+        assert!(
+            olo >= -r && ohi <= r && olo < -1.5 && ohi > 1.5,
+            "[{olo}, {ohi}]"
+        );
+        // M_ii − s with s ∈ [0, r]: in [−2r, r], below −r a quarter of the time.
+        assert!(
+            dlo >= -2.0 * r && dhi <= r && dlo < -3.0 && dhi > 1.0,
+            "[{dlo}, {dhi}]"
+        );
+    }
+
+    #[test]
+    fn states_put_unit_quaternions_on_rotations_and_fill_the_rest() {
+        let r = 3.0;
+        let (lo, hi) = range(sample(&euclidean_state(4, r), 100).into_iter().flatten());
+        assert!(lo >= -r && hi <= r && lo < -2.5 && hi > 2.5, "[{lo}, {hi}]");
+
+        let layout = StateLayout::particles(&[Block::Euclidean(2), Block::So3, Block::Se3], 3);
+        let pa = layout.particle_ambient_len();
+        let mut free = Vec::new();
+        for y in sample(&state(layout, r), 100) {
+            assert_eq!(y.len(), layout.ambient_len());
+            for p in 0..layout.count() {
+                for sp in layout.spans() {
+                    let at = &y[p * pa + sp.ambient..];
+                    let (quat, rest) = match sp.block {
+                        Block::So3 => (true, 0),
+                        Block::Se3 => (true, 3),
+                        Block::Euclidean(k) => (false, k),
+                    };
+                    let skip = if quat {
+                        let norm2: f64 = at[..4].iter().map(|v| v * v).sum();
+                        assert!((norm2 - 1.0).abs() < 1e-12, "particle {p}: |q|² = {norm2}");
+                        4
+                    } else {
+                        0
+                    };
+                    free.extend_from_slice(&at[skip..skip + rest]);
+                }
+            }
+        }
+        let (lo, hi) = range(free);
+        assert!(lo >= -r && hi <= r && lo < -2.5 && hi > 2.5, "[{lo}, {hi}]");
+    }
+
+    #[test]
+    fn step_sequences_run_either_way() {
+        for backward in [false, true] {
+            let sign = if backward { -1.0 } else { 1.0 };
+            for seq in sample(&step_sequence(0.5, 6, 0.01, 0.2, backward), 50) {
+                assert_eq!(seq.len(), 6);
+                assert!(
+                    seq.sizes()
+                        .iter()
+                        .all(|h| (0.01..=0.2).contains(&(sign * h))),
+                    "{:?}",
+                    seq.sizes()
+                );
+            }
+        }
+    }
+}
