@@ -123,3 +123,37 @@ pub fn state_distance<T: Real>(layout: &StateLayout, a: &[T], b: &[T]) -> T {
     }
     acc.sqrt()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_state_distance_sums_every_block_of_every_particle() {
+        // [Euclidean(1), So3, Se3] × 2: 1 + 4 + 7 ambient entries a particle.
+        let layout = StateLayout::particles(&[Block::Euclidean(1), Block::So3, Block::Se3], 2);
+        let id = [1.0, 0.0, 0.0, 0.0];
+        let about_z = |angle: f64| [(angle / 2.0).cos(), 0.0, 0.0, (angle / 2.0).sin()];
+        let particle = |x: f64, q: [f64; 4], g: [f64; 4], t: [f64; 3]| {
+            let mut v = alloc::vec![x];
+            v.extend(q);
+            v.extend(g);
+            v.extend(t);
+            v
+        };
+        let a = [
+            particle(0.5, id, id, [0.0; 3]),
+            particle(1.0, id, id, [1.0, 1.0, 1.0]),
+        ]
+        .concat();
+        let b = [
+            particle(0.5, about_z(0.2), id, [0.0; 3]),
+            particle(4.0, id, about_z(-0.1), [2.0, 3.0, 3.0]),
+        ]
+        .concat();
+        // 0.2² (particle 0's rotation) + 3² + 0.1² + |(1, 2, 2)|² (particle 1).
+        let expected = (0.04_f64 + 9.0 + 0.01 + 9.0).sqrt();
+        let d = state_distance(&layout, &a, &b);
+        assert!((d - expected).abs() < 1e-14, "{d} against {expected}");
+    }
+}
