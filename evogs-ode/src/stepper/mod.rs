@@ -68,13 +68,15 @@ impl<T: Real> Combo<T> {
         Self { terms, len }
     }
 
-    /// The terms `(i, w[i])` with `w[i] ≠ 0` or `keep[i]`: a weight of a dual number can
-    /// compare equal to zero (its real part) and still carry a derivative.
+    /// The terms `(i, w[i])` with `keep[i]`, which must mark every non-zero weight (a
+    /// continuous extension's support): a weight of a dual number can compare equal to zero
+    /// (its real part) and still carry a derivative.
     fn with_kept(w: &[T], keep: &[bool]) -> Self {
         let mut terms = [(0, T::ZERO); MAX_STAGES];
         let mut len = 0;
         for (j, (&wj, &k)) in w.iter().zip(keep).enumerate() {
-            if k || wj != T::ZERO {
+            debug_assert!(k || wj == T::ZERO, "a non-zero weight outside the support");
+            if k {
                 terms[len] = (j, wj);
                 len += 1;
             }
