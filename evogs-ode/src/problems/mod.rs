@@ -129,6 +129,37 @@ mod tests {
     use super::*;
 
     #[test]
+    fn every_problem_reports_the_name_its_tables_use() {
+        let names = [
+            ExactProblem::<f64>::name(&Logistic::default()),
+            ExactProblem::<f64>::name(&CosGrowth::default()),
+            ExactProblem::<f64>::name(&HarmonicOscillator::default()),
+            ExactProblem::<f64>::name(&RotatingDecay::default()),
+            ExactProblem::<f64>::name(&ConstantRate::default()),
+            ExactProblem::<f64>::name(&ProblemK),
+            ExactProblem::<f64>::name(&ConstantTwist::default()),
+            ExactProblem::<f64>::name(&ScrewPair::default()),
+            ExactProblem::<f64>::name(&PropelledTop::default()),
+            ExactProblem::<f64>::name(&SymmetricTop::default()),
+        ];
+        assert_eq!(
+            names,
+            [
+                "logistic",
+                "cos-growth",
+                "harmonic-oscillator",
+                "rotating-decay",
+                "so3-constant-rate",
+                "problem-k",
+                "se3-constant-twist",
+                "se3-screw-pair",
+                "se3-propelled-top",
+                "symmetric-top",
+            ]
+        );
+    }
+
+    #[test]
     fn the_state_distance_sums_every_block_of_every_particle() {
         // [Euclidean(1), So3, Se3] × 2: 1 + 4 + 7 ambient entries a particle.
         let layout = StateLayout::particles(&[Block::Euclidean(1), Block::So3, Block::Se3], 2);
