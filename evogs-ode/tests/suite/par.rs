@@ -18,6 +18,10 @@ fn run<F: VectorField<f64> + Clone>(proto: &F, m: Method, par: Par) -> [Vec<f64>
     let grid = TimeGrid::uniform(0.0, 0.8, 6);
     let mut field = proto.clone();
     let mut st = Stepper::new(m, layout).with_par(par);
+    assert_eq!(st.par(), par, "with_par");
+    st.set_par(Par::Seq);
+    assert_eq!(st.par(), Par::Seq, "set_par");
+    st.set_par(par);
     let traj = integrate_trajectory(&mut field, &mut st, &grid, &y0, Checkpointing::Every(2));
     let mut d_y0 = vec![0.0; layout.tangent_len()];
     let mut d_th = vec![0.0; field.n_params()];
