@@ -321,6 +321,22 @@ fn closed_forms_solve_their_odes() {
     exact_solves_its_ode(&mut ConstantTwist::default());
     exact_solves_its_ode(&mut ScrewPair::default());
     exact_solves_its_ode(&mut PropelledTop::default());
+    // The default oscillator starts at rest (v₀ = 0): one that moves, and with ω ≠ 1.
+    let mut moving = HarmonicOscillator {
+        omega: 1.3,
+        x0: -0.4,
+        v0: 0.7,
+        t_end: 3.0,
+    };
+    exact_solves_its_ode(&mut moving);
+    // E = ½(v² + ω²x²), the same all along the exact solution.
+    let e0 = 0.5 * (0.7 * 0.7 + (1.3 * 0.4_f64).powi(2));
+    let mut y = [0.0; 2];
+    for t in [0.0, 0.9, 2.5] {
+        moving.exact(t, &mut y);
+        let e = moving.energy(&y);
+        assert!((e - e0).abs() < 1e-15, "energy {e} at t = {t}, {e0} at 0");
+    }
     let top = AsymmetricTop::<f64>::default();
     let mut y = [0.0; 7];
     top.initial_state(&mut y);
