@@ -128,20 +128,29 @@ pub fn state_distance<T: Real>(layout: &StateLayout, a: &[T], b: &[T]) -> T {
 mod tests {
     use super::*;
 
+    /// The name and the reference interval's length of a problem.
+    fn report<P: ExactProblem<f64>>(p: &P) -> (&'static str, f64) {
+        (p.name(), p.t_end() - p.t0())
+    }
+
     #[test]
     fn every_problem_reports_the_name_its_tables_use() {
-        let names = [
-            ExactProblem::<f64>::name(&Logistic::default()),
-            ExactProblem::<f64>::name(&CosGrowth::default()),
-            ExactProblem::<f64>::name(&HarmonicOscillator::default()),
-            ExactProblem::<f64>::name(&RotatingDecay::default()),
-            ExactProblem::<f64>::name(&ConstantRate::default()),
-            ExactProblem::<f64>::name(&ProblemK),
-            ExactProblem::<f64>::name(&ConstantTwist::default()),
-            ExactProblem::<f64>::name(&ScrewPair::default()),
-            ExactProblem::<f64>::name(&PropelledTop::default()),
-            ExactProblem::<f64>::name(&SymmetricTop::default()),
+        let reports = [
+            report(&Logistic::default()),
+            report(&CosGrowth::default()),
+            report(&HarmonicOscillator::default()),
+            report(&RotatingDecay::default()),
+            report(&ConstantRate::default()),
+            report(&ProblemK),
+            report(&ConstantTwist::default()),
+            report(&ScrewPair::default()),
+            report(&PropelledTop::default()),
+            report(&SymmetricTop::default()),
         ];
+        for (name, length) in reports {
+            assert!(length >= 1.0, "{name}: a reference interval of {length}");
+        }
+        let names = reports.map(|r| r.0);
         assert_eq!(
             names,
             [

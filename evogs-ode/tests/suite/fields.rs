@@ -123,6 +123,14 @@ fn example_field_vjps() {
 
 #[test]
 fn problem_field_vjps() {
+    // Problem K's rate depends on time alone: no parameters, a zero VJP.
+    check(
+        "problem K",
+        |_| ProblemK,
+        |_| ProblemK,
+        &[],
+        &[0.6, 0.0, 0.8, 0.0],
+    );
     check(
         "logistic",
         |th| Logistic {
