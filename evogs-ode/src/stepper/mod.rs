@@ -633,9 +633,37 @@ impl<T: Real> Stepper<T> {
 
 #[cfg(test)]
 mod tests {
-    use super::jl_tr_mul;
+    use super::{Stepper, jl_tr_mul};
+    use crate::fields::LinearField;
+    use crate::{Block, Method, StateLayout};
     use evogs_math::Vec3;
     use evogs_math::so3_jacobians::left_jacobian;
+
+    #[test]
+    #[should_panic(expected = "state length differs from the layout")]
+    fn a_state_of_another_length_is_refused() {
+        let mut f = LinearField::new(2, alloc::vec![0.0; 4]);
+        let mut st = Stepper::new(Method::Rk4, StateLayout::euclidean(2));
+        st.step(&mut f, 0.0, 0.1, &mut [1.0, 2.0, 3.0]);
+    }
+
+    #[test]
+    #[should_panic(expected = "field dimension differs from the layout")]
+    fn a_field_of_another_dimension_is_refused() {
+        let mut f = LinearField::new(3, alloc::vec![0.0; 9]);
+        let mut st = Stepper::new(Method::Rk4, StateLayout::euclidean(2));
+        st.step(&mut f, 0.0, 0.1, &mut [1.0, 2.0]);
+    }
+
+    #[test]
+    #[should_panic(expected = "the field's layout differs from the stepper's")]
+    #[cfg(debug_assertions)]
+    fn a_field_of_another_layout_is_refused() {
+        let mut f = LinearField::new(6, alloc::vec![0.0; 36]);
+        let layout = StateLayout::particles(&[Block::Euclidean(3)], 2);
+        let mut st = Stepper::new(Method::Rk4, layout);
+        st.step(&mut f, 0.0, 0.1, &mut [0.0; 6]);
+    }
 
     #[test]
     fn jl_transpose_product_matches_the_matrix() {

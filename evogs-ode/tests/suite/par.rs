@@ -5,7 +5,8 @@
 use crate::common;
 
 use common::{CoupledField, CoupledSe3Field, Loss, random_state};
-use evogs_math::Par;
+use evogs_math::{Par, Vec3};
+use evogs_ode::algebra::{ParticleFrame, RigidRotation};
 use evogs_ode::{
     Checkpointing, Method, Stepper, TimeGrid, VectorField, discrete_adjoint, integrate_trajectory,
 };
@@ -58,6 +59,22 @@ fn rayon_and_sequential_steppers_agree_bitwise_with_se3_blocks() {
         assert!(
             seq == par,
             "{m}: SE(3) results differ between Seq and Rayon"
+        );
+    }
+}
+
+#[test]
+fn rayon_and_sequential_steppers_agree_bitwise_on_points() {
+    // A Euclidean layout takes the steppers' flat per-chunk loops.
+    let frame = ParticleFrame::points(1500);
+    assert!(frame.layout().is_euclidean(), "points are Euclidean");
+    let proto = RigidRotation::new(frame, Vec3::new(0.3, -0.2, 0.5), Vec3::new(0.1, 0.0, -0.1));
+    for m in [Method::Euler, Method::Rk4, Method::Rk38] {
+        let seq = run(&proto, m, Par::Seq);
+        let par = run(&proto, m, Par::Rayon);
+        assert!(
+            seq == par,
+            "{m}: results on points differ between Seq and Rayon"
         );
     }
 }
