@@ -9,7 +9,7 @@ use crate::common;
 use common::{CoupledField, random_state};
 use evogs_math::rng::SplitMix64;
 use evogs_ode::{
-    Checkpointing, Method, StageTape, StateLayout, Stepper, TimeGrid, VectorField,
+    Checkpointing, Method, StageTape, StateLayout, Stepper, TimeGrid, Trajectory, VectorField,
     discrete_adjoint, discrete_adjoint_recorded, integrate_recorded, integrate_trajectory,
 };
 
@@ -60,6 +60,18 @@ impl VectorField<f64> for Recording {
         self.recorded_vjps += 1;
         self.vjp(t, y, w, d_y, d_params);
     }
+}
+
+/// [`discrete_adjoint_recorded`] of the cotangent of ones (the gradients are dropped).
+fn recorded_adjoint_of_ones<F: VectorField<f64>>(
+    f: &mut F,
+    st: &mut Stepper<f64>,
+    traj: &Trajectory<f64>,
+    tape: &mut StageTape<f64, F::Record>,
+) {
+    let n = f.dim();
+    let (mut d_y0, mut d_p) = (vec![0.0; n], vec![0.0; f.n_params()]);
+    discrete_adjoint_recorded(f, st, traj, tape, &vec![1.0; n], &mut d_y0, &mut d_p);
 }
 
 #[test]
@@ -148,17 +160,7 @@ fn a_tape_of_another_run_is_refused() {
         &y0,
         &mut tape,
     );
-    let n = f.dim();
-    let (mut d_y0, mut d_p) = (vec![0.0; n], vec![0.0; f.n_params()]);
-    discrete_adjoint_recorded(
-        &mut f,
-        &mut st,
-        &traj,
-        &mut tape,
-        &vec![1.0; n],
-        &mut d_y0,
-        &mut d_p,
-    );
+    recorded_adjoint_of_ones(&mut f, &mut st, &traj, &mut tape);
 }
 
 thread_local! {
@@ -203,7 +205,6 @@ fn the_tape_makes_no_more_records_than_its_capacity_and_the_steps_it_drops() {
     let count = 2;
     let layout = CoupledField::<f64>::layout_for(count);
     let y0 = random_state(&layout, 3);
-    let n = layout.tangent_len();
     let grid = TimeGrid::uniform(0.0, 1.0, 10);
     let mut f = CountedField(CoupledField::random(count, 4));
     let mut st = Stepper::new(Method::Rk4, f.layout());
@@ -216,16 +217,7 @@ fn the_tape_makes_no_more_records_than_its_capacity_and_the_steps_it_drops() {
         let traj = integrate_recorded(&mut f, &mut st, &grid, &y0, &mut tape);
         assert_eq!(made() - before, forward, "capacity {capacity}: forward");
         let before = made();
-        let (mut d_y0, mut d_p) = (vec![0.0; n], vec![0.0; f.n_params()]);
-        discrete_adjoint_recorded(
-            &mut f,
-            &mut st,
-            &traj,
-            &mut tape,
-            &vec![1.0; n],
-            &mut d_y0,
-            &mut d_p,
-        );
+        recorded_adjoint_of_ones(&mut f, &mut st, &traj, &mut tape);
         assert_eq!(made() - before, scratch, "capacity {capacity}: reverse");
         tape.set_capacity(capacity / 2);
         assert_eq!(tape.capacity(), capacity / 2);
