@@ -53,14 +53,7 @@ fn rayon_and_sequential_steppers_agree_bitwise() {
 #[test]
 fn rayon_and_sequential_steppers_agree_bitwise_with_se3_blocks() {
     let proto = CoupledSe3Field::<f64>::random(1500, 71);
-    for m in [Method::Euler, Method::Rk4, Method::Rk38] {
-        let seq = run(&proto, m, Par::Seq);
-        let par = run(&proto, m, Par::Rayon);
-        assert!(
-            seq == par,
-            "{m}: SE(3) results differ between Seq and Rayon"
-        );
-    }
+    assert_seq_and_rayon_agree(&proto, "SE(3) results");
 }
 
 #[test]
@@ -69,12 +62,14 @@ fn rayon_and_sequential_steppers_agree_bitwise_on_points() {
     let frame = ParticleFrame::points(1500);
     assert!(frame.layout().is_euclidean(), "points are Euclidean");
     let proto = RigidRotation::new(frame, Vec3::new(0.3, -0.2, 0.5), Vec3::new(0.1, 0.0, -0.1));
+    assert_seq_and_rayon_agree(&proto, "results on points");
+}
+
+/// [`run`] gives bitwise the same results with `Par::Seq` and `Par::Rayon` for each method.
+fn assert_seq_and_rayon_agree<F: VectorField<f64> + Clone>(proto: &F, what: &str) {
     for m in [Method::Euler, Method::Rk4, Method::Rk38] {
-        let seq = run(&proto, m, Par::Seq);
-        let par = run(&proto, m, Par::Rayon);
-        assert!(
-            seq == par,
-            "{m}: results on points differ between Seq and Rayon"
-        );
+        let seq = run(proto, m, Par::Seq);
+        let par = run(proto, m, Par::Rayon);
+        assert!(seq == par, "{m}: {what} differ between Seq and Rayon");
     }
 }
