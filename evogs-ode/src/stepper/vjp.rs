@@ -475,3 +475,67 @@ impl<T: Real> Stepper<T> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Stepper;
+    use crate::fields::LinearField;
+    use crate::{Method, StateLayout};
+
+    fn stepper_and_field() -> (Stepper<f64>, LinearField<f64>) {
+        let f = LinearField::new(2, alloc::vec![0.1, -0.4, 0.3, 0.2]);
+        (Stepper::new(Method::Rk4, StateLayout::euclidean(2)), f)
+    }
+
+    #[test]
+    #[should_panic(expected = "cotangent length differs from the layout")]
+    fn a_cotangent_of_another_length_is_refused() {
+        let (mut st, mut f) = stepper_and_field();
+        st.step_vjp(&mut f, 0.0, 0.1, &[1.0, 2.0], &mut [1.0; 3], &mut [0.0; 4]);
+    }
+
+    #[test]
+    #[should_panic(expected = "parameter-gradient length differs from the field")]
+    fn a_parameter_gradient_of_another_length_is_refused() {
+        let (mut st, mut f) = stepper_and_field();
+        st.step_vjp(&mut f, 0.0, 0.1, &[1.0, 2.0], &mut [1.0; 2], &mut [0.0; 3]);
+    }
+
+    #[test]
+    #[should_panic(expected = "state length differs from the layout")]
+    fn a_state_of_another_length_is_refused_by_the_vjp() {
+        let (mut st, mut f) = stepper_and_field();
+        st.step_vjp(&mut f, 0.0, 0.1, &[1.0], &mut [1.0; 2], &mut [0.0; 4]);
+    }
+
+    /// "Later calls allocate nothing": the reverse-pass buffers of the first VJP are the
+    /// ones every later VJP writes into (a reallocation would move them: the new buffer is
+    /// made while the old one is still alive).
+    #[test]
+    fn later_vjps_reuse_the_first_ones_buffers() {
+        let (mut st, mut f) = stepper_and_field();
+        let mut d = [0.0; 4];
+        st.step_vjp(&mut f, 0.0, 0.1, &[1.0, 2.0], &mut [1.0, 0.5], &mut d);
+        let first = (
+            st.adj.f.as_ptr(),
+            st.adj.kbar.as_ptr(),
+            st.adj.obar.as_ptr(),
+        );
+        for k in 1..4 {
+            st.step_vjp(
+                &mut f,
+                0.1 * f64::from(k),
+                0.1,
+                &[1.0, 2.0],
+                &mut [1.0, 0.5],
+                &mut d,
+            );
+            let now = (
+                st.adj.f.as_ptr(),
+                st.adj.kbar.as_ptr(),
+                st.adj.obar.as_ptr(),
+            );
+            assert_eq!(now, first, "VJP {k} reallocated the reverse-pass buffers");
+        }
+    }
+}
