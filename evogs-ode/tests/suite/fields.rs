@@ -33,6 +33,7 @@ fn check<FF, FD>(
     let n = layout.tangent_len();
     let p = theta.len();
     assert_eq!(f.n_params(), p, "{what}: n_params");
+    assert_eq!(f.dim(), n, "{what}: dim");
     let mut rng = SplitMix64::new(5);
     let w: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
     let t = 0.81;
@@ -329,6 +330,14 @@ fn closed_forms_solve_their_odes() {
     exact_solves_its_ode(&mut ConstantTwist::default());
     exact_solves_its_ode(&mut ScrewPair::default());
     exact_solves_its_ode(&mut PropelledTop::default());
+    // The default tops have I₁ = I₂ = 1, where dividing by I₁ and multiplying by it agree.
+    let mut flat = SymmetricTop::default();
+    flat.body.inertia = Vec3::new(1.6, 1.6, 0.7);
+    exact_solves_its_ode(&mut flat);
+    exact_solves_its_ode(&mut PropelledTop {
+        top: flat,
+        ..Default::default()
+    });
     // The default oscillator starts at rest (v₀ = 0): one that moves, and with ω ≠ 1.
     let mut moving = HarmonicOscillator {
         omega: 1.3,
@@ -351,6 +360,11 @@ fn closed_forms_solve_their_odes() {
     assert!(
         (top.body.energy(&y) - 0.5 * (1.0 + 2.0 * 0.01 + 3.0 * 0.25)).abs() < 1e-15,
         "energy"
+    );
+    // |Iω|² with Iω = (1, 0.2, 1.5).
+    assert!(
+        (top.body.momentum_squared(&y) - (1.0 + 0.04 + 2.25)).abs() < 1e-15,
+        "|Iω|²"
     );
 }
 
