@@ -223,6 +223,21 @@ fn problem_field_vjps() {
         &[1.0, 2.2, 2.9],
         &random_state(&body, 4),
     );
+    check(
+        "asymmetric top",
+        |th| {
+            let mut top = AsymmetricTop::default();
+            top.body.inertia = Vec3::from_slice(th);
+            top
+        },
+        |th| {
+            let mut top = AsymmetricTop::default();
+            top.body.inertia = Vec3::from_slice(th);
+            top
+        },
+        &[1.3, 0.8, 2.1],
+        &random_state(&body, 8),
+    );
     let se3 = StateLayout::particles(&[Block::Se3], 1);
     check(
         "constant twist",
