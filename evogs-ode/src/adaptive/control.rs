@@ -223,6 +223,66 @@ mod tests {
     }
 
     #[test]
+    fn each_bound_of_the_constants_is_where_it_says() {
+        let d = StepControl::<f64>::default();
+        let with = |f: fn(&mut StepControl<f64>)| {
+            let mut c = d;
+            f(&mut c);
+            c
+        };
+        // At each inclusive bound: valid.
+        assert!(with(|c| c.safety = 1.0).is_valid(5), "safety = 1");
+        assert!(with(|c| c.min_factor = 1.0).is_valid(5), "min_factor = 1");
+        assert!(with(|c| c.max_factor = 1.0).is_valid(5), "max_factor = 1");
+        assert!(with(|c| c.beta = 0.0).is_valid(5), "beta = 0");
+        // At each exclusive bound, or a hair past an inclusive one: invalid.
+        assert!(!with(|c| c.safety = 0.0).is_valid(5), "safety = 0");
+        assert!(!with(|c| c.safety = 1.0 + 1e-15).is_valid(5), "safety > 1");
+        assert!(!with(|c| c.min_factor = 0.0).is_valid(5), "min_factor = 0");
+        assert!(
+            !with(|c| c.min_factor = 1.0 + 1e-15).is_valid(5),
+            "min_factor > 1"
+        );
+        assert!(
+            !with(|c| c.max_factor = 1.0 - 1e-15).is_valid(5),
+            "max_factor < 1"
+        );
+        assert!(!with(|c| c.beta = -1e-300).is_valid(5), "beta < 0");
+        assert!(
+            !with(|c| c.max_factor = f64::INFINITY).is_valid(5),
+            "infinite"
+        );
+        // α = 1/k − 0.75β is exactly 0 in f64 for k = 2, β = 2/3 (and positive just below).
+        let edge = with(|c| c.beta = 2.0 / 3.0);
+        assert!(edge.alpha(2).to_bits() == 0, "α = {}", edge.alpha(2));
+        assert!(!edge.is_valid(2), "α = 0");
+        assert!(with(|c| c.beta = 0.66).is_valid(2), "α > 0");
+    }
+
+    #[test]
+    fn factors_follow_their_formulas() {
+        let c = StepControl::<f64>::default();
+        let alpha = 0.2 - 0.75 * 0.04;
+        // Rejected: safety · err^(−α), between min_factor and safety.
+        let want = 0.9 * 4.0_f64.powf(-alpha);
+        let r = c.reject_factor(4.0, 5);
+        assert!((r - want).abs() < 1e-15, "reject {r} vs {want}");
+        // Accepted (PI): safety · err^(−α) · err_prev^β.
+        let want = 0.9 * 0.3_f64.powf(-alpha) * 0.7_f64.powf(0.04);
+        let a = c.accept_factor(0.3, 0.7, 5, false);
+        assert!((a - want).abs() < 1e-15, "accept {a} vs {want}");
+        // err = err_prev = 0: ∞ · 0 is NaN, taken as the largest growth.
+        assert!(c.accept_factor(0.0, 0.0, 5, false).to_bits() == 10.0_f64.to_bits());
+        // A floor above the formula's value is reached.
+        let high_floor = StepControl {
+            min_factor: 0.95,
+            ..c
+        };
+        let a = high_floor.accept_factor(1.0, 1e-4, 5, false);
+        assert!(a.to_bits() == 0.95_f64.to_bits(), "{a}");
+    }
+
+    #[test]
     fn the_norm_is_rms_with_mixed_scale() {
         let v = [1e-6, -2e-6];
         let m = [0.0, 3.0];
@@ -237,5 +297,16 @@ mod tests {
             out.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-300),
             "rotation components scaled by 1: {out:?}"
         );
+        // Two particles: the second's entries are read and written at its own offsets.
+        let l = StateLayout::particles(&[Block::Euclidean(1), Block::Se3], 2);
+        let mut y = [0.0; 16];
+        y[..8].copy_from_slice(&[-2.5, 1.0, 0.0, 0.0, 0.0, 0.4, -0.3, 0.2]);
+        y[8..].copy_from_slice(&[0.7, 1.0, 0.0, 0.0, 0.0, -3.0, 0.5, 0.1]);
+        let mut out = [0.0; 14];
+        tangent_magnitudes(&l, &y, &mut out);
+        let mut want = [1.0; 14];
+        (want[0], want[7]) = (2.5, 0.7);
+        want[8..].fill(3.0);
+        assert!(out.to_vec() == want.to_vec(), "two particles: {out:?}");
     }
 }

@@ -339,6 +339,11 @@ fn closed_forms_solve_their_odes() {
     exact_solves_its_ode(&mut CosGrowth::default());
     exact_solves_its_ode(&mut HarmonicOscillator::default());
     exact_solves_its_ode(&mut RotatingDecay::default());
+    // The default starts on the first axis (x₂ = 0): one that starts off both axes.
+    exact_solves_its_ode(&mut RotatingDecay {
+        x0: [0.6, -1.3],
+        ..Default::default()
+    });
     exact_solves_its_ode(&mut ConstantRate::default());
     exact_solves_its_ode(&mut ProblemK);
     exact_solves_its_ode(&mut SymmetricTop::default());
