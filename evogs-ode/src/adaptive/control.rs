@@ -283,6 +283,42 @@ mod tests {
     }
 
     #[test]
+    fn initial_steps_follow_the_heuristic() {
+        let bits = |x: f64| x.to_bits();
+        // h₁ = (0.01 / max(d1, d2))^(1/k): (0.01/4)^(1/2) = 0.05, below 100|h₀| and h_max.
+        let h = initial_step_size(1.0, 4.0, 0.5, 2, 1.0);
+        assert!((h - 0.05).abs() < 1e-16, "{h}");
+        // Both norms negligible: h₁ = max(1e-6, 1e-3 |h₀|).
+        let h = initial_step_size(-0.01, 0.0, 1e-16, 2, 1.0);
+        assert!((h - 1e-5).abs() < 1e-20, "{h}");
+        let h = initial_step_size(1e-4, 0.0, 0.0, 2, 1.0);
+        assert!(bits(h) == bits(1e-6), "{h}");
+        // 100 |h₀| binds: h₁ = (0.01/1e-12)^(1/2) = 1e5.
+        let h = initial_step_size(1e-4, 1e-12, 0.0, 2, 1.0);
+        assert!((h - 0.01).abs() < 1e-17, "{h}");
+        // h_max binds.
+        assert!(bits(initial_step_size(1.0, 1e-12, 0.0, 2, 0.3)) == bits(0.3));
+        // The trial step 0.01 d0/d1, or 1e-6 when either norm is below 1e-5.
+        assert!((trial_step_size(2.0, 4.0, 1.0) - 0.005).abs() < 1e-18);
+        assert!(
+            bits(trial_step_size(1e-6, 4.0, 1.0)) == bits(1e-6),
+            "d0 small"
+        );
+        assert!(
+            bits(trial_step_size(4.0, 1e-6, 1.0)) == bits(1e-6),
+            "d1 small"
+        );
+        assert!(
+            (trial_step_size(1e-5, 1e-5, 1.0) - 0.01).abs() < 1e-17,
+            "at 1e-5"
+        );
+        assert!(
+            bits(trial_step_size(2.0, 1.0, 0.004)) == bits(0.004),
+            "h_max"
+        );
+    }
+
+    #[test]
     fn the_norm_is_rms_with_mixed_scale() {
         let v = [1e-6, -2e-6];
         let m = [0.0, 3.0];
