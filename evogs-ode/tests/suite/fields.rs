@@ -10,9 +10,9 @@ use evogs_math::so3::log_quat;
 use evogs_math::{Dual, Quat, Se3, Vec3, Vec6};
 use evogs_ode::fields::{LinearField, Mlp};
 use evogs_ode::problems::{
-    AsymmetricTop, ConstantRate, ConstantTwist, CosGrowth, DissipativePair, ExactProblem,
-    HarmonicOscillator, Logistic, ProblemK, PropelledTop, RigidBody, RotatingDecay, ScrewPair,
-    SymmetricTop,
+    AsymmetricTop, ConstantRate, ConstantTwist, CosGrowth, DissipativePair, EulerRates,
+    ExactProblem, ForcedOscillator, HarmonicOscillator, Kepler, Logistic, Lorenz, ProblemK,
+    PropelledTop, RigidBody, RotatingDecay, ScrewPair, SymmetricTop, VanDerPol,
 };
 use evogs_ode::{Block, StateLayout, VectorField};
 
@@ -276,6 +276,68 @@ fn problem_field_vjps() {
         },
         &[1.0, 2.2, 2.9, 0.6],
         &random_state(&propelled, 7),
+    );
+}
+
+/// The classic problems without closed forms, at parameters away from 1 (where a product
+/// and a quotient by a parameter agree).
+#[test]
+fn classic_field_vjps() {
+    let euclidean = |n| random_state(&StateLayout::euclidean(n), 9);
+    check(
+        "van der pol",
+        |th| VanDerPol { mu: th[0] },
+        |th| VanDerPol { mu: th[0] },
+        &[1.7],
+        &euclidean(2),
+    );
+    check(
+        "kepler",
+        |th| Kepler { mu: th[0] },
+        |th| Kepler { mu: th[0] },
+        &[0.8],
+        &[0.9, -0.4, 0.3, 1.1],
+    );
+    check(
+        "lorenz",
+        |th| Lorenz {
+            sigma: th[0],
+            rho: th[1],
+            beta: th[2],
+        },
+        |th| Lorenz {
+            sigma: th[0],
+            rho: th[1],
+            beta: th[2],
+        },
+        &[9.0, 27.0, 2.5],
+        &euclidean(3),
+    );
+    check(
+        "euler rates",
+        |th| EulerRates {
+            inertia: [th[0], th[1], th[2]],
+        },
+        |th| EulerRates {
+            inertia: [th[0], th[1], th[2]],
+        },
+        &[1.3, 0.8, 2.1],
+        &euclidean(3),
+    );
+    check(
+        "forced oscillator",
+        |th| ForcedOscillator {
+            a: th[0],
+            w: th[1],
+            c: th[2],
+        },
+        |th| ForcedOscillator {
+            a: th[0],
+            w: th[1],
+            c: th[2],
+        },
+        &[0.6, 1.9, 0.3],
+        &euclidean(2),
     );
 }
 
