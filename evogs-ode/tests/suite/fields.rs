@@ -341,6 +341,22 @@ fn classic_field_vjps() {
     );
 }
 
+/// Kepler's perihelion start and energy: every start of semi-major axis 1 has `E = −½`
+/// (μ = 1), and a generic state has `|p|²/2 − μ/|q|`.
+#[test]
+fn kepler_start_and_energy_have_their_values() {
+    let y: [f64; 4] = Kepler::initial_state(0.5);
+    assert!(y.to_vec() == [0.5, 0.0, 0.0, 3.0_f64.sqrt()], "{y:?}");
+    let unit = Kepler { mu: 1.0_f64 };
+    for e in [0.0, 0.3, 0.6] {
+        let energy = unit.energy(&Kepler::initial_state(e));
+        assert!((energy + 0.5).abs() < 1e-15, "e = {e}: {energy}");
+    }
+    let energy = Kepler { mu: 0.8 }.energy(&[0.9, -0.4, 0.3, 1.1]);
+    let want = 0.5 * (0.09 + 1.21) - 0.8 / 0.97_f64.sqrt();
+    assert!((energy - want).abs() < 1e-15, "{energy} vs {want}");
+}
+
 /// `(exact(t + ε) ⊖ exact(t − ε))/2ε` equals the field at `exact(t)` (tangent
 /// coordinates: `Log(q₊ q₋*)` on SO(3) blocks, the world-frame rate; `Log(T₊ T₋⁻¹)` on
 /// SE(3) blocks, the world-frame twist).
