@@ -109,3 +109,29 @@ impl<T: Real> StepSequence<T> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::adaptive::StepSequence;
+    use evogs_math::Dual;
+
+    /// At a step's end `θ` is exactly 1, where `(τ − tₙ)/hₙ` misses it by an ulp
+    /// (0.1 + 0.2 is not 0.3), and its derivative with respect to τ is still `1/hₙ`.
+    #[test]
+    fn theta_is_one_at_a_step_end_and_keeps_its_derivative() {
+        let c = |v: f64| Dual::new(v, 0.0);
+        let seq = StepSequence::from_sizes(c(0.1), &[c(0.2), c(0.4)]);
+        let (t, h) = seq.step(0);
+        let end = t + h;
+        assert!(
+            ((end.re - t.re) / h.re).to_bits() != 1.0_f64.to_bits(),
+            "an ulp off"
+        );
+        let theta = seq.theta(0, Dual::new(end.re, 1.0));
+        assert!(theta.re.to_bits() == 1.0_f64.to_bits(), "θ = {}", theta.re);
+        assert!((theta.eps - 5.0).abs() < 1e-15, "dθ/dτ = {}", theta.eps);
+        // Inside the step: (τ − tₙ)/hₙ and 1/hₙ.
+        let theta = seq.theta(0, Dual::new(0.15, 1.0));
+        assert!((theta.re - 0.25).abs() < 1e-15 && (theta.eps - 5.0).abs() < 1e-15);
+    }
+}

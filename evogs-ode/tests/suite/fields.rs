@@ -357,6 +357,16 @@ fn kepler_start_and_energy_have_their_values() {
     assert!((energy - want).abs() < 1e-15, "{energy} vs {want}");
 }
 
+#[test]
+fn euler_rates_energy_has_its_value() {
+    let rates = EulerRates {
+        inertia: [1.3_f64, 0.8, 2.1],
+    };
+    let energy = rates.energy(&[0.5, -1.5, 0.4]);
+    let want = 0.5 * (1.3 * 0.25 + 0.8 * 2.25 + 2.1 * 0.16);
+    assert!((energy - want).abs() < 1e-15, "{energy} vs {want}");
+}
+
 /// `(exact(t + ε) ⊖ exact(t − ε))/2ε` equals the field at `exact(t)` (tangent
 /// coordinates: `Log(q₊ q₋*)` on SO(3) blocks, the world-frame rate; `Log(T₊ T₋⁻¹)` on
 /// SE(3) blocks, the world-frame twist).
