@@ -11,8 +11,8 @@ use evogs_math::{Dual, Quat, Se3, Vec3, Vec6};
 use evogs_ode::fields::{LinearField, Mlp};
 use evogs_ode::problems::{
     AsymmetricTop, ConstantRate, ConstantTwist, CosGrowth, DissipativePair, EulerRates,
-    ExactProblem, ForcedOscillator, HarmonicOscillator, Kepler, Logistic, Lorenz, ProblemK,
-    PropelledTop, RigidBody, RotatingDecay, ScrewPair, SymmetricTop, VanDerPol,
+    ExactProblem, ForcedOscillator, HarmonicOscillator, Kepler, Logistic, Lorenz, ProblemError,
+    ProblemK, PropelledTop, RigidBody, RotatingDecay, ScrewPair, SymmetricTop, VanDerPol, by_name,
 };
 use evogs_ode::{Block, StateLayout, VectorField};
 
@@ -355,6 +355,27 @@ fn kepler_start_and_energy_have_their_values() {
     let energy = Kepler { mu: 0.8 }.energy(&[0.9, -0.4, 0.3, 1.1]);
     let want = 0.5 * (0.09 + 1.21) - 0.8 / 0.97_f64.sqrt();
     assert!((energy - want).abs() < 1e-15, "{energy} vs {want}");
+}
+
+#[test]
+fn by_name_says_what_is_wrong() {
+    let none = |_: &str| None;
+    let short = |_: &str| Some(vec![1.0, 2.0]);
+    let unknown = by_name("brusselator", &none).err().expect("unknown name");
+    assert!(unknown == ProblemError::UnknownName, "{unknown:?}");
+    assert!(
+        unknown.to_string()
+            == "unknown problem (expected van_der_pol, kepler, lorenz, rigid_body, \
+                forced_oscillator)",
+        "{unknown}"
+    );
+    let missing = by_name("van_der_pol", &none).err().expect("no μ");
+    assert!(
+        missing.to_string() == "parameter `mu` missing or of the wrong size",
+        "{missing}"
+    );
+    let wrong = by_name("rigid_body", &short).err().expect("two moments");
+    assert!(wrong == ProblemError::Parameter("inertia"), "{wrong:?}");
 }
 
 #[test]
