@@ -350,14 +350,44 @@ fn a_stiff_problem_makes_the_controller_reject_steps() {
     }
 }
 
+/// The adjoint's cost as documented: a reverse pass over the stages the update uses for a
+/// step without outputs (6 of Dopri5's 7: its last, FSAL stage has weight 0), over all of
+/// them for a step with outputs.
+#[test]
+fn the_adjoint_passes_over_the_stages_each_step_needs() {
+    let mut f = Counting::new(VanDerPol { mu: 1.5 });
+    let mut solver = AdaptiveSolver::new(Pair::Dopri5, f.layout(), opts(1e-6));
+    let times = [0.7, 3.0];
+    let sol = solver
+        .solve(&mut f, 0.0, 3.0, &[2.0, 0.0], &times)
+        .expect("solve");
+    let n = sol.steps().len();
+    let with_outputs = 1 + usize::from(sol.steps().locate(0.7) != Some(n - 1));
+    assert!(n > 4 && with_outputs == 2, "{n} steps");
+    let (mut d_y0, mut d_mu, mut d_t) = ([0.0; 2], [0.0], [0.0; 2]);
+    f.vjps = 0;
+    solver
+        .adjoint(
+            &mut f,
+            &sol,
+            &[1.0, 0.5, -0.3, 0.2],
+            &mut d_y0,
+            &mut d_mu,
+            &mut d_t,
+        )
+        .expect("adjoint");
+    assert_eq!(
+        f.vjps,
+        6 * (n - with_outputs) + 7 * with_outputs,
+        "{n} steps"
+    );
+}
+
 #[test]
 fn statistics_count_every_evaluation() {
     for pair in Pair::ALL {
         for (h_init, start) in [(None, 2), (Some(0.01), 1)] {
-            let mut f = Counting {
-                inner: VanDerPol { mu: 3.0 },
-                evals: 0,
-            };
+            let mut f = Counting::new(VanDerPol { mu: 3.0 });
             let o = AdaptiveOptions {
                 h_init,
                 ..opts(1e-6)

@@ -491,7 +491,7 @@ proptest! {
         t1 in 0.1..6.0f64,
     ) {
         // (Backward in time, Van der Pol's limit cycle repels: solutions blow up.)
-        let mut f = Counting { inner: VanDerPol { mu }, evals: 0 };
+        let mut f = Counting::new(VanDerPol { mu });
         let mut s = AdaptiveSolver::new(pr, f.layout(), opts(tol));
         let sol = s.solve(&mut f, 0.0, t1, &y0, &[t1]).expect("solve");
         let st = sol.stats();

@@ -463,11 +463,22 @@ pub(crate) fn dual_tangent(layout: &StateLayout, y: &[evogs_math::Dual<f64>], ou
     }
 }
 
-/// A field wrapper that counts evaluations.
+/// A field wrapper that counts evaluations and VJPs.
 #[derive(Clone, Debug)]
 pub(crate) struct Counting<F> {
     pub(crate) inner: F,
     pub(crate) evals: usize,
+    pub(crate) vjps: usize,
+}
+
+impl<F> Counting<F> {
+    pub(crate) const fn new(inner: F) -> Self {
+        Self {
+            inner,
+            evals: 0,
+            vjps: 0,
+        }
+    }
 }
 
 impl<T: Real, F: VectorField<T>> VectorField<T> for Counting<F> {
@@ -486,6 +497,7 @@ impl<T: Real, F: VectorField<T>> VectorField<T> for Counting<F> {
         self.inner.eval(t, y, dydt);
     }
     fn vjp(&mut self, t: T, y: &[T], w: &[T], d_y: &mut [T], d_params: &mut [T]) {
+        self.vjps += 1;
         self.inner.vjp(t, y, w, d_y, d_params);
     }
 }
