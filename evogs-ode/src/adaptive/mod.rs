@@ -304,7 +304,7 @@ impl<T: Real> StepSequence<T> {
         &self.sizes
     }
 
-    /// +1 forward in time, −1 backward.
+    /// +1 forward in time (and for a span of zero), −1 backward.
     fn direction(&self) -> T {
         if self.t1 < self.t0 { -T::ONE } else { T::ONE }
     }

@@ -350,6 +350,20 @@ fn a_stiff_problem_makes_the_controller_reject_steps() {
     }
 }
 
+/// `is_empty`, and the direction of a span of zero: forward, so a later time belongs to
+/// the last step.
+#[test]
+fn a_sequence_of_zero_span_runs_forward() {
+    assert!(StepSequence::from_sizes(1.0, &[]).is_empty(), "no steps");
+    assert!(
+        !StepSequence::from_sizes(1.0, &[0.5]).is_empty(),
+        "one step"
+    );
+    let zero = StepSequence::from_sizes(1.0, &[0.0, 0.0]);
+    assert_eq!(zero.locate(2.0), Some(1), "a later time");
+    assert_eq!(zero.locate(0.0), Some(0), "an earlier time");
+}
+
 /// The adjoint's cost as documented: a reverse pass over the stages the update uses for a
 /// step without outputs (6 of Dopri5's 7: its last, FSAL stage has weight 0), over all of
 /// them for a step with outputs.
@@ -798,6 +812,16 @@ fn checkpointing_policies_give_bitwise_identical_gradients() {
                 n.div_ceil(policy.interval()) + 1,
                 "{pair} {policy:?}: stored states"
             );
+            // `state(k)` holds every k-th start, the final state at n, nothing else.
+            let k = policy.interval();
+            for i in 0..n + 2 * k + 2 {
+                let held = i == n || (i < n && i % k == 0);
+                assert_eq!(
+                    sol.state(i).is_some(),
+                    held,
+                    "{pair} {policy:?}: state({i})"
+                );
+            }
         }
     }
 }
