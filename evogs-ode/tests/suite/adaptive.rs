@@ -11,8 +11,10 @@ use common::{Counting, CoupledField, Loss, N_THETA, dual_tangent, random_state, 
 use evogs_math::Dual;
 use evogs_math::diff::{GradCheck, central_gradient, vjp_dot_test};
 use evogs_ode::adaptive::{
-    AdaptiveError, AdaptiveOptions, AdaptiveSolution, AdaptiveSolver, Pair, StepSequence,
+    AdaptiveError, AdaptiveOptions, AdaptiveSolution, AdaptiveSolver, Pair, StepControl,
+    StepSequence,
 };
+use evogs_ode::fields::LinearField;
 use evogs_ode::order::{convergence_study, estimate_order};
 use evogs_ode::problems::{
     ConstantRate, CosGrowth, DissipativePair, ExactProblem, Logistic, Lorenz, ProblemK,
@@ -348,6 +350,144 @@ fn a_stiff_problem_makes_the_controller_reject_steps() {
             .fold(0.0f64, |a, h| a.max(h.abs()));
         assert!(hmax * 50.0 < 4.0, "{pair}: h = {hmax} beyond stability");
     }
+}
+
+/// Each condition of the argument checks refuses on its own, and the edges it allows pass.
+#[test]
+fn each_invalid_argument_is_refused_alone() {
+    let mut f = Logistic::<f64>::default();
+    let mut s = AdaptiveSolver::new(Pair::Bs32, f.layout(), opts(1e-6));
+    let base = opts(1e-6);
+    let refused: [(&str, AdaptiveOptions<f64>); 10] = [
+        (
+            "rtol < 0 alone",
+            AdaptiveOptions {
+                rtol: -1e-6,
+                ..base
+            },
+        ),
+        (
+            "atol NaN alone",
+            AdaptiveOptions {
+                atol: f64::NAN,
+                ..base
+            },
+        ),
+        (
+            "h_min < 0",
+            AdaptiveOptions {
+                h_min: -1.0,
+                ..base
+            },
+        ),
+        (
+            "h_min ∞",
+            AdaptiveOptions {
+                h_min: f64::INFINITY,
+                ..base
+            },
+        ),
+        (
+            "h_max = 0",
+            AdaptiveOptions {
+                h_max: Some(0.0),
+                ..base
+            },
+        ),
+        (
+            "h_max NaN",
+            AdaptiveOptions {
+                h_max: Some(f64::NAN),
+                ..base
+            },
+        ),
+        (
+            "h_init = 0",
+            AdaptiveOptions {
+                h_init: Some(0.0),
+                ..base
+            },
+        ),
+        (
+            "h_init ∞",
+            AdaptiveOptions {
+                h_init: Some(f64::INFINITY),
+                ..base
+            },
+        ),
+        // Bs32's error is O(h³): β < 1/(0.75·3) ≈ 0.444 (0.5 would pass for k = 1 or 2).
+        (
+            "β ≥ 1/k",
+            base.control(StepControl {
+                beta: 0.5,
+                ..StepControl::default()
+            }),
+        ),
+        (
+            "both tolerances 0",
+            AdaptiveOptions {
+                rtol: 0.0,
+                atol: 0.0,
+                ..base
+            },
+        ),
+    ];
+    for (what, o) in refused {
+        s.set_options(o);
+        let e = s.solve(&mut f, 0.0, 1.0, &[0.5], &[]).err();
+        assert!(
+            matches!(
+                e,
+                Some(AdaptiveError::InvalidTolerance | AdaptiveError::InvalidOption(_))
+            ),
+            "{what}: {e:?}"
+        );
+    }
+    let allowed: [(&str, AdaptiveOptions<f64>); 4] = [
+        ("rtol = 0", AdaptiveOptions { rtol: 0.0, ..base }),
+        ("atol = 0", AdaptiveOptions { atol: 0.0, ..base }),
+        (
+            "h_max = 1",
+            AdaptiveOptions {
+                h_max: Some(1.0),
+                ..base
+            },
+        ),
+        (
+            "h_init = −0.1",
+            AdaptiveOptions {
+                h_init: Some(-0.1),
+                ..base
+            },
+        ),
+    ];
+    for (what, o) in allowed {
+        s.set_options(o);
+        assert!(s.solve(&mut f, 0.0, 1.0, &[0.5], &[]).is_ok(), "{what}");
+    }
+    s.set_options(base);
+    for (t0, t1) in [(f64::NAN, 1.0), (0.0, f64::INFINITY)] {
+        let e = s.solve(&mut f, t0, t1, &[0.5], &[]).err();
+        assert!(
+            matches!(e, Some(AdaptiveError::NonFinite(_))),
+            "{t0} → {t1}: {e:?}"
+        );
+    }
+    // A field of the right dimension on another layout (Euclidean 6 against [SO(3), ℝ³]).
+    let top = SymmetricTop::<f64>::default();
+    let mut s = AdaptiveSolver::new(Pair::Bs32, top.layout(), base);
+    let mut flat = LinearField::new(6, vec![0.0; 36]);
+    let e = s.solve(
+        &mut flat,
+        0.0,
+        1.0,
+        &[1.0, 0.0, 0.0, 0.0, 0.1, 0.2, 0.3],
+        &[],
+    );
+    assert!(
+        matches!(e.err(), Some(AdaptiveError::LayoutMismatch)),
+        "layout alone"
+    );
 }
 
 /// `is_empty`, and the direction of a span of zero: forward, so a later time belongs to
