@@ -490,6 +490,63 @@ fn each_invalid_argument_is_refused_alone() {
     );
 }
 
+/// The I controller's law, step by step, where every error it saw is known: on `y' = t²`
+/// Bs32's two solutions differ by exactly `h³E` (`E = Σ(bᵢ − b̂ᵢ)cᵢ²`; both are exact for
+/// `y' = t`), so with `rtol = 0` the error of a step of size h is `|E|h³/atol`, and the next
+/// step must be `h·clamp(0.9·err^(−1/k), 0.2, 10)` with k = 3, the embedded order plus one.
+#[test]
+fn the_controller_follows_its_law_where_the_error_is_known() {
+    struct TimeSquared;
+    impl VectorField<f64> for TimeSquared {
+        type Record = ();
+        fn dim(&self) -> usize {
+            1
+        }
+        fn n_params(&self) -> usize {
+            0
+        }
+        fn eval(&mut self, t: f64, _y: &[f64], dydt: &mut [f64]) {
+            dydt[0] = t * t;
+        }
+        fn vjp(&mut self, _t: f64, _y: &[f64], _w: &[f64], _d_y: &mut [f64], _d_p: &mut [f64]) {}
+    }
+    let pair = Pair::Bs32;
+    let (tab, b_hat) = (pair.tableau(), pair.embedded_weights());
+    let e: f64 = (0..pair.stages())
+        .map(|i| (tab.b(i).to_f64() - b_hat[i].to_f64()) * tab.c(i).to_f64().powi(2))
+        .sum();
+    assert!((e + 1.0 / 24.0).abs() < 1e-16, "E = {e}");
+    let atol = 1e-6;
+    let o = AdaptiveOptions {
+        rtol: 0.0,
+        atol,
+        h_init: Some(1e-3),
+        control: StepControl::integral(),
+        ..opts(1e-6)
+    };
+    let mut f = TimeSquared;
+    let mut s = AdaptiveSolver::new(pair, f.layout(), o);
+    let sol = s.solve(&mut f, 0.0, 2.0, &[0.0], &[]).expect("solve");
+    assert_eq!(sol.stats().rejected, 0, "no rejection");
+    let h = sol.steps().sizes();
+    assert!(h.len() > 20, "{} steps", h.len());
+    // The last step is cut (or stretched) onto t1: compare every step before it.
+    for n in 0..h.len() - 2 {
+        let err = (e * h[n].powi(3)).abs() / atol;
+        let want = h[n] * (0.9 * err.powf(-1.0 / 3.0)).clamp(0.2, 10.0);
+        assert!(
+            (h[n + 1] - want).abs() <= 1e-8 * want,
+            "step {}: {} vs {want}",
+            n + 1,
+            h[n + 1]
+        );
+    }
+    // Backward through zero: the span is |t1 − t0|.
+    let mut f = Logistic::<f64>::default();
+    let mut s = AdaptiveSolver::new(pair, f.layout(), opts(1e-6));
+    assert!(s.solve(&mut f, 1.0, -1.0, &[0.5], &[]).is_ok(), "1 → −1");
+}
+
 /// `is_empty`, and the direction of a span of zero: forward, so a later time belongs to
 /// the last step.
 #[test]
