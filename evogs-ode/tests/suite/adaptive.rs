@@ -547,6 +547,39 @@ fn the_controller_follows_its_law_where_the_error_is_known() {
     assert!(s.solve(&mut f, 1.0, -1.0, &[0.5], &[]).is_ok(), "1 → −1");
 }
 
+/// A step is too small below `h_min` (a step of exactly `h_min` is taken) and where a tenth
+/// of it vanishes against t (`0.1|h| ≤ |t|·ε`).
+#[test]
+fn steps_too_small_are_refused_at_their_edges() {
+    let mut f = Logistic::<f64>::default();
+    let mut s = AdaptiveSolver::new(Pair::Bs32, f.layout(), opts(1e-6));
+    let with = |h_min: f64, h_init: f64| AdaptiveOptions {
+        h_min,
+        h_init: Some(h_init),
+        ..opts(1e-6)
+    };
+    s.set_options(with(1e-3, 1e-3));
+    assert!(s.solve(&mut f, 0.0, 1.0, &[0.5], &[]).is_ok(), "h = h_min");
+    s.set_options(with(1e-3, 0.999e-3));
+    let e = s.solve(&mut f, 0.0, 1.0, &[0.5], &[]).err();
+    assert!(
+        matches!(e, Some(AdaptiveError::StepSizeTooSmall { .. })),
+        "{e:?}"
+    );
+    // At t = 10⁶, |t|·ε ≈ 2.2e-10: a step of 1e-9 is lost in t, one of 1e-8 is not.
+    s.set_options(with(0.0, 1e-9));
+    let e = s.solve(&mut f, 1e6, 1e6 + 1.0, &[0.5], &[]).err();
+    assert!(
+        matches!(e, Some(AdaptiveError::StepSizeTooSmall { .. })),
+        "{e:?}"
+    );
+    s.set_options(with(0.0, 1e-8));
+    assert!(
+        s.solve(&mut f, 1e6, 1e6 + 1.0, &[0.5], &[]).is_ok(),
+        "h = 1e-8 at 10⁶"
+    );
+}
+
 /// `is_empty`, and the direction of a span of zero: forward, so a later time belongs to
 /// the last step.
 #[test]
