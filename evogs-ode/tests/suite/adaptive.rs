@@ -541,6 +541,30 @@ fn the_controller_follows_its_law_where_the_error_is_known() {
             h[n + 1]
         );
     }
+    // An error of exactly 1 is accepted. With h = 1/8 from t = 0 every stage value
+    // (cᵢh)² is exact, so the estimate `h·Σ eᵢKᵢ` (eᵢ = bᵢ − b̂ᵢ rounded, summed in stage
+    // order as the solver does) is known to the bit; with it as atol and rtol = 0 the
+    // error norm is exactly 1.
+    let h0 = 0.125;
+    let mut acc = 0.0;
+    for i in 0..pair.stages() {
+        let w = (tab.b(i) - b_hat[i]).to_f64();
+        if w != 0.0 {
+            acc += w * (tab.c(i).to_f64() * h0).powi(2);
+        }
+    }
+    let o = AdaptiveOptions {
+        atol: (h0 * acc).abs(),
+        h_init: Some(h0),
+        ..o
+    };
+    let mut s = AdaptiveSolver::new(pair, f.layout(), o);
+    let sol = s.solve(&mut f, 0.0, 1.0, &[0.0], &[]).expect("solve");
+    assert!(
+        sol.steps().step(0) == (0.0, h0),
+        "err = 1 accepted: {:?}",
+        sol.steps().step(0)
+    );
     // Backward through zero: the span is |t1 − t0|.
     let mut f = Logistic::<f64>::default();
     let mut s = AdaptiveSolver::new(pair, f.layout(), opts(1e-6));
