@@ -571,6 +571,45 @@ fn the_controller_follows_its_law_where_the_error_is_known() {
     assert!(s.solve(&mut f, 1.0, -1.0, &[0.5], &[]).is_ok(), "1 → −1");
 }
 
+/// HNW's initial step on `y' = 1 + t + t²`, `y₀ = 1`, where every norm is known: the scale
+/// is `sc = atol + rtol·|y₀|`, `d0 = d1 = 1/sc`, so the probe is `h₀ = 0.01`, and
+/// `d2 = |f(h₀) − f(0)|/(h₀·sc) = 1.01/sc`; the first step is `(0.01/max(d1, d2))^(1/3)`
+/// (Bs32: k = 3), well below `100h₀` and the span, and accepted.
+#[test]
+fn the_initial_step_is_the_heuristics_where_the_norms_are_known() {
+    struct Quadratic;
+    impl VectorField<f64> for Quadratic {
+        type Record = ();
+        fn dim(&self) -> usize {
+            1
+        }
+        fn n_params(&self) -> usize {
+            0
+        }
+        fn eval(&mut self, t: f64, _y: &[f64], dydt: &mut [f64]) {
+            dydt[0] = 1.0 + t + t * t;
+        }
+        fn vjp(&mut self, _t: f64, _y: &[f64], _w: &[f64], _d_y: &mut [f64], _d_p: &mut [f64]) {}
+    }
+    let (rtol, atol) = (1e-3, 1e-6);
+    let o = AdaptiveOptions {
+        rtol,
+        atol,
+        ..opts(1e-6)
+    };
+    let mut f = Quadratic;
+    let mut s = AdaptiveSolver::new(Pair::Bs32, f.layout(), o);
+    let sol = s.solve(&mut f, 0.0, 1.0, &[1.0], &[]).expect("solve");
+    let sc = atol + rtol;
+    let (d1, d2) = (1.0 / sc, 1.01 / sc);
+    let want = (0.01 / d1.max(d2)).cbrt();
+    let (t, h) = sol.steps().step(0);
+    assert!(
+        t == 0.0 && (h - want).abs() < 1e-12 * want,
+        "first step {h}, want {want}"
+    );
+}
+
 /// A step is too small below `h_min` (a step of exactly `h_min` is taken) and where a tenth
 /// of it vanishes against t (`0.1|h| ≤ |t|·ε`).
 #[test]
@@ -619,7 +658,7 @@ fn a_sequence_of_zero_span_runs_forward() {
 }
 
 /// The adjoint's cost as documented: a reverse pass over the stages the update uses for a
-/// step without outputs (6 of Dopri5's 7: its last, FSAL stage has weight 0), over all of
+/// step without outputs (and the replay's forward pass likewise) (6 of Dopri5's 7: its last, FSAL stage has weight 0), over all of
 /// them for a step with outputs.
 #[test]
 fn the_adjoint_passes_over_the_stages_each_step_needs() {
@@ -649,6 +688,13 @@ fn the_adjoint_passes_over_the_stages_each_step_needs() {
         6 * (n - with_outputs) + 7 * with_outputs,
         "{n} steps"
     );
+    // The replay likewise evaluates the stages each step needs.
+    let mut outputs = [0.0; 4];
+    f.evals = 0;
+    solver
+        .replay(&mut f, sol.steps(), &[2.0, 0.0], &times, &mut outputs)
+        .expect("replay");
+    assert_eq!(f.evals, 6 * (n - with_outputs) + 7 * with_outputs, "replay");
 }
 
 #[test]
