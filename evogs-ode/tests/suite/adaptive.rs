@@ -490,26 +490,29 @@ fn each_invalid_argument_is_refused_alone() {
     );
 }
 
+/// `y' = g(t)`: a scalar field of time alone, without parameters.
+struct OfTime(fn(f64) -> f64);
+
+impl VectorField<f64> for OfTime {
+    type Record = ();
+    fn dim(&self) -> usize {
+        1
+    }
+    fn n_params(&self) -> usize {
+        0
+    }
+    fn eval(&mut self, t: f64, _y: &[f64], dydt: &mut [f64]) {
+        dydt[0] = (self.0)(t);
+    }
+    fn vjp(&mut self, _t: f64, _y: &[f64], _w: &[f64], _d_y: &mut [f64], _d_p: &mut [f64]) {}
+}
+
 /// The I controller's law, step by step, where every error it saw is known: on `y' = t²`
 /// Bs32's two solutions differ by exactly `h³E` (`E = Σ(bᵢ − b̂ᵢ)cᵢ²`; both are exact for
 /// `y' = t`), so with `rtol = 0` the error of a step of size h is `|E|h³/atol`, and the next
 /// step must be `h·clamp(0.9·err^(−1/k), 0.2, 10)` with k = 3, the embedded order plus one.
 #[test]
 fn the_controller_follows_its_law_where_the_error_is_known() {
-    struct TimeSquared;
-    impl VectorField<f64> for TimeSquared {
-        type Record = ();
-        fn dim(&self) -> usize {
-            1
-        }
-        fn n_params(&self) -> usize {
-            0
-        }
-        fn eval(&mut self, t: f64, _y: &[f64], dydt: &mut [f64]) {
-            dydt[0] = t * t;
-        }
-        fn vjp(&mut self, _t: f64, _y: &[f64], _w: &[f64], _d_y: &mut [f64], _d_p: &mut [f64]) {}
-    }
     let pair = Pair::Bs32;
     let (tab, b_hat) = (pair.tableau(), pair.embedded_weights());
     let e: f64 = (0..pair.stages())
@@ -524,7 +527,7 @@ fn the_controller_follows_its_law_where_the_error_is_known() {
         control: StepControl::integral(),
         ..opts(1e-6)
     };
-    let mut f = TimeSquared;
+    let mut f = OfTime(|t| t * t);
     let mut s = AdaptiveSolver::new(pair, f.layout(), o);
     let sol = s.solve(&mut f, 0.0, 2.0, &[0.0], &[]).expect("solve");
     assert_eq!(sol.stats().rejected, 0, "no rejection");
@@ -577,27 +580,13 @@ fn the_controller_follows_its_law_where_the_error_is_known() {
 /// (Bs32: k = 3), well below `100h₀` and the span, and accepted.
 #[test]
 fn the_initial_step_is_the_heuristics_where_the_norms_are_known() {
-    struct Quadratic;
-    impl VectorField<f64> for Quadratic {
-        type Record = ();
-        fn dim(&self) -> usize {
-            1
-        }
-        fn n_params(&self) -> usize {
-            0
-        }
-        fn eval(&mut self, t: f64, _y: &[f64], dydt: &mut [f64]) {
-            dydt[0] = 1.0 + t + t * t;
-        }
-        fn vjp(&mut self, _t: f64, _y: &[f64], _w: &[f64], _d_y: &mut [f64], _d_p: &mut [f64]) {}
-    }
     let (rtol, atol) = (1e-3, 1e-6);
     let o = AdaptiveOptions {
         rtol,
         atol,
         ..opts(1e-6)
     };
-    let mut f = Quadratic;
+    let mut f = OfTime(|t| 1.0 + t + t * t);
     let mut s = AdaptiveSolver::new(Pair::Bs32, f.layout(), o);
     let sol = s.solve(&mut f, 0.0, 1.0, &[1.0], &[]).expect("solve");
     let sc = atol + rtol;
