@@ -516,11 +516,14 @@ mod tests {
         let (mut st, mut f) = stepper_and_field();
         let mut d = [0.0; 4];
         st.step_vjp(&mut f, 0.0, 0.1, &[1.0, 2.0], &mut [1.0, 0.5], &mut d);
-        let first = (
-            st.adj.f.as_ptr(),
-            st.adj.kbar.as_ptr(),
-            st.adj.obar.as_ptr(),
-        );
+        let buffers = |st: &Stepper<f64>| {
+            (
+                st.adj.f.as_ptr(),
+                st.adj.kbar.as_ptr(),
+                st.adj.obar.as_ptr(),
+            )
+        };
+        let first = buffers(&st);
         for k in 1..4 {
             st.step_vjp(
                 &mut f,
@@ -530,11 +533,7 @@ mod tests {
                 &mut [1.0, 0.5],
                 &mut d,
             );
-            let now = (
-                st.adj.f.as_ptr(),
-                st.adj.kbar.as_ptr(),
-                st.adj.obar.as_ptr(),
-            );
+            let now = buffers(&st);
             assert_eq!(now, first, "VJP {k} reallocated the reverse-pass buffers");
         }
     }

@@ -2,6 +2,7 @@
 //! code they share): each module is one file of tests, run as `cargo test -p evogs-ode --test suite`.
 
 mod adaptive;
+mod adaptive_adjoint;
 mod adaptive_oracle;
 mod adjoint;
 mod algebra;
