@@ -39,8 +39,7 @@ impl<T: Gemm> ChunkRecord<T> {
     }
 }
 
-/// The scratch of one chunk's evaluation or VJP (one per chunk, shared by every stored
-/// evaluation).
+/// The scratch of one chunk's VJP (one per chunk, shared by every stored evaluation).
 #[derive(Debug)]
 pub(super) struct ChunkWork<T> {
     /// The six sampled C-vectors of one level of one row.
@@ -62,8 +61,8 @@ impl<T: Gemm> ChunkWork<T> {
     }
 }
 
-/// Samples every plane for `rows` positions (into `samples`, scratch of at least `C`) and
-/// forms the features (Hadamard per level).
+/// Samples every plane for `rows` positions and forms the features (the Hadamard product of
+/// a level's six samples, each sample multiplied straight into the features).
 fn encode_chunk<T: Gemm>(
     hex: &HexPlane,
     params: &[T],
@@ -71,24 +70,36 @@ fn encode_chunk<T: Gemm>(
     pos: &[T],
     stride: usize,
     rows: usize,
-    samples: &mut [T],
     features: &mut [T],
 ) {
-    let ch = hex.channels();
+    // The presets' channel counts as constants: the channel loops are specialised to them.
+    match hex.channels() {
+        32 => encode_rows(hex, params, (t, pos, stride, rows), 32, features),
+        16 => encode_rows(hex, params, (t, pos, stride, rows), 16, features),
+        ch => encode_rows(hex, params, (t, pos, stride, rows), ch, features),
+    }
+}
+
+/// [`encode_chunk`] with `ch = hex.channels()` passed in, so that a constant `ch` at a call
+/// site specialises the channel loops (always inlined).
+#[inline(always)]
+fn encode_rows<T: Gemm>(
+    hex: &HexPlane,
+    params: &[T],
+    (t, pos, stride, rows): (T, &[T], usize, usize),
+    ch: usize,
+    features: &mut [T],
+) {
     let fd = hex.feature_dim();
-    let smp = &mut samples[..ch];
     for r in 0..rows {
         let p = [pos[r * stride], pos[r * stride + 1], pos[r * stride + 2]];
         let (c, _) = hex.coords(p, t);
         for l in 0..hex.levels() {
             let feat = &mut features[r * fd + l * ch..r * fd + (l + 1) * ch];
-            feat.fill(T::ONE);
-            for q in 0..6 {
-                let lk = hex.lookup(l, q, &c);
-                HexPlane::sample(params, &lk, smp);
-                for (f, &v) in feat.iter_mut().zip(smp.iter()) {
-                    *f *= v;
-                }
+            // 1·s₀ is s₀ exactly, so the first plane is written, not multiplied in.
+            HexPlane::sample(params, &hex.lookup(l, 0, &c), feat);
+            for q in 1..6 {
+                HexPlane::sample_mul(params, &hex.lookup(l, q, &c), feat);
             }
         }
     }
@@ -105,20 +116,10 @@ pub(super) fn forward_chunk<T: Gemm>(
     stride: usize,
     rows: usize,
     rec: &mut ChunkRecord<T>,
-    work: &mut ChunkWork<T>,
     out: &mut [T],
     profile: Option<&FieldProfile>,
 ) {
-    encode_chunk(
-        hex,
-        params,
-        t,
-        pos,
-        stride,
-        rows,
-        &mut work.samples,
-        &mut rec.features,
-    );
+    encode_chunk(hex, params, t, pos, stride, rows, &mut rec.features);
     mlp.forward(
         &params[hex.n_params()..],
         &rec.features,
@@ -193,7 +194,53 @@ pub(super) fn decode_chunk_vjp<T: Gemm>(
     dss: &mut [T],
     d_pos: &mut [T],
 ) {
-    let ch = hex.channels();
+    let grads = (dss, d_pos);
+    match hex.channels() {
+        32 => decode_rows(
+            hex,
+            params,
+            (t, pos, stride, rows),
+            32,
+            d_features,
+            samples,
+            lks,
+            grads,
+        ),
+        16 => decode_rows(
+            hex,
+            params,
+            (t, pos, stride, rows),
+            16,
+            d_features,
+            samples,
+            lks,
+            grads,
+        ),
+        ch => decode_rows(
+            hex,
+            params,
+            (t, pos, stride, rows),
+            ch,
+            d_features,
+            samples,
+            lks,
+            grads,
+        ),
+    }
+}
+
+/// [`decode_chunk_vjp`] with `ch = hex.channels()` passed in (see [`encode_rows`]).
+#[inline(always)]
+fn decode_rows<T: Gemm>(
+    hex: &HexPlane,
+    params: &[T],
+    (t, pos, stride, rows): (T, &[T], usize, usize),
+    ch: usize,
+    d_features: &[T],
+    samples: &mut [T],
+    lks: &mut [Lookup<T>],
+    (dss, d_pos): (&mut [T], &mut [T]),
+) {
     let fd = hex.feature_dim();
     let smp = &mut samples[..6 * ch];
     for r in 0..rows {

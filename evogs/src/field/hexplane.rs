@@ -341,6 +341,28 @@ impl HexPlane {
         }
     }
 
+    /// Multiplies `out` element-wise by the sampled C-vector of a lookup (`out_c ← out_c·s_c`,
+    /// with `s_c` rounded exactly as [`sample`](Self::sample) rounds it): one factor of a
+    /// level's Hadamard product.
+    #[inline]
+    pub fn sample_mul<T: Real>(params: &[T], lk: &Lookup<T>, out: &mut [T]) {
+        let (w00, w10, w01, w11) = corner_weights(lk.fx, lk.fy);
+        let n = out.len();
+        let b = lk.base;
+        let (p00, p10) = (
+            &params[b..b + n],
+            &params[b + lk.col_step..b + lk.col_step + n],
+        );
+        let r = b + lk.row_step;
+        let (p01, p11) = (
+            &params[r..r + n],
+            &params[r + lk.col_step..r + lk.col_step + n],
+        );
+        for c in 0..n {
+            out[c] *= w00 * p00[c] + w10 * p10[c] + w01 * p01[c] + w11 * p11[c];
+        }
+    }
+
     /// The gradient of `Σ_c g_c·s_c` (s the sampled vector) with respect to the lookup's two
     /// normalised coordinates: `(∂/∂c_i, ∂/∂c_j)`.
     #[inline]

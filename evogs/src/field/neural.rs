@@ -285,12 +285,10 @@ impl<T: Gemm> NeuralField<T> {
         let n = at.n;
         let n_chunks = n.div_ceil(CHUNK);
         rec.prepare(&self.hex, &self.mlp, at.t, n, self.generation);
-        self.ensure_work(n_chunks);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
         let profile = self.profile.as_deref();
         let (t, positions, stride) = (at.t, at.positions, at.stride);
-        let run = |(ci, (rec, work)): (usize, (&mut ChunkRecord<T>, &mut ChunkWork<T>)),
-                   out_c: &mut [T]| {
+        let run = |(ci, rec): (usize, &mut ChunkRecord<T>), out_c: &mut [T]| {
             let rows = CHUNK.min(n - ci * CHUNK);
             let pos = &positions[ci * CHUNK * stride..];
             forward_chunk(
@@ -302,35 +300,30 @@ impl<T: Gemm> NeuralField<T> {
                 stride,
                 rows,
                 rec,
-                work,
                 &mut out_c[..rows * N_OUT],
                 profile,
             );
         };
-        let chunks = rec.chunks_mut(n_chunks).iter_mut();
-        let works = self.work[..n_chunks].iter_mut();
+        let chunks = rec.chunks_mut(n_chunks);
         match (self.par, out) {
             (Par::Seq, Some(out)) => chunks
-                .zip(works)
+                .iter_mut()
                 .enumerate()
                 .zip(out[..n * N_OUT].chunks_mut(CHUNK * N_OUT))
                 .for_each(|(item, out_c)| run(item, out_c)),
-            (Par::Seq, None) => chunks.zip(works).enumerate().for_each(|item| {
+            (Par::Seq, None) => chunks.iter_mut().enumerate().for_each(|item| {
                 let mut out_c = [T::ZERO; CHUNK * N_OUT];
                 run(item, &mut out_c);
             }),
             #[cfg(feature = "rayon")]
             (Par::Rayon, out) => {
                 use rayon::prelude::*;
-                let chunks = rec.chunks_mut(n_chunks).par_iter_mut();
-                let works = self.work[..n_chunks].par_iter_mut();
+                let chunks = chunks.par_iter_mut().enumerate();
                 match out {
                     Some(out) => chunks
-                        .zip(works)
-                        .enumerate()
                         .zip(out[..n * N_OUT].par_chunks_mut(CHUNK * N_OUT))
                         .for_each(|(item, out_c)| run(item, out_c)),
-                    None => chunks.zip(works).enumerate().for_each(|item| {
+                    None => chunks.for_each(|item| {
                         let mut out_c = [T::ZERO; CHUNK * N_OUT];
                         run(item, &mut out_c);
                     }),
