@@ -1,14 +1,16 @@
 //! [`Gemm`]: the scalar types with a real matrix-multiply kernel.
 //!
-//! The batched layers of the neural field call nalgebra's `gemm` on strided matrix views of
-//! our own buffers. For `f32`/`f64` and all dimensions above 5, nalgebra hands the product to
-//! matrixmultiply's `sgemm`/`dgemm`, which dispatch at run time to AVX2/FMA micro-kernels.
-//! This keeps `unsafe` out of evogs (it lives in those well-tested crates).
+//! The batched layers of the neural field multiply strided views of our own buffers. For
+//! `f32`/`f64`, products whose operands each have one contiguous direction (every product
+//! of the MLP) go to faer's `matmul` (sequential; its kernels are chosen at run time for
+//! the CPU: AVX-512, AVX2/FMA, NEON or scalar). faer replaced matrixmultiply (through
+//! nalgebra) here because it multiplies row-major operands without repacking them:
+//! matrixmultiply packs the left operand by columns, which for the row-major activations is
+//! a strided gather before every product (`docs/performance.md` has the measurements). This
+//! keeps `unsafe` out of evogs (it lives in faer).
 //!
-//! Thin products (a dimension ≤ 5, e.g. the 3-wide output heads) are done here with a plain
-//! loop: nalgebra's own fallback for them (`gemv` → `axcpy`) iterates over the length of the
-//! *underlying slice* of a strided vector view instead of its number of rows (nalgebra
-//! 0.35.0, `array_axcpy(.., x.len())`), which reads out of bounds for the strided views we use.
+//! Thin products (a dimension ≤ 5, e.g. the 3-wide output heads) and any operand without a
+//! contiguous direction are done here with plain loops.
 //!
 //! The neural field is written once, generic over `T: Gemm`: f32 for training, f64 for the
 //! gradient checks. Matrices are (slice, row stride, column stride), so a transposed operand is
@@ -16,7 +18,7 @@
 
 use super::lanes::{LANES, coord_grad_f32x8, coord_grad_sums};
 use evogs_math::Real;
-use nalgebra::{DMatrixView, DMatrixViewMut};
+use faer::{Accum, MatMut, MatRef as FaerRef, Par};
 
 /// A strided matrix operand: `(data, rows, cols, row_stride, col_stride)`; entry (i, j) is
 /// `data[i·row_stride + j·col_stride]`.
@@ -56,8 +58,21 @@ pub trait Gemm: Real {
     );
 }
 
+/// A faer view of a strided operand with one contiguous direction (`None` otherwise).
+fn faer_view<T: faer::traits::ComplexField>(
+    (d, m, n, rs, cs): MatRef<'_, T>,
+) -> Option<FaerRef<'_, T>> {
+    if cs == 1 {
+        Some(FaerRef::from_row_major_slice_with_stride(d, m, n, rs))
+    } else if rs == 1 {
+        Some(FaerRef::from_column_major_slice_with_stride(d, m, n, cs))
+    } else {
+        None
+    }
+}
+
 /// The one implementation behind both scalar types.
-fn gemm_impl<T: Real + nalgebra::RealField>(
+fn gemm_impl<T: Real + faer::traits::ComplexField>(
     alpha: T,
     a: MatRef<'_, T>,
     b: MatRef<'_, T>,
@@ -74,24 +89,49 @@ fn gemm_impl<T: Real + nalgebra::RealField>(
     if cm == 0 || cn == 0 {
         return;
     }
-    if cm <= THIN || cn <= THIN || ak <= THIN {
-        thin_gemm(
-            alpha,
-            (ad, ars, acs),
-            (bd, brs, bcs),
-            beta,
-            (cd, crs, ccs),
-            (cm, ak, cn),
-        );
+    let general = cm > THIN && cn > THIN && ak > THIN && (ccs == 1 || crs == 1);
+    if let (true, Some(av), Some(bv)) = (general, faer_view(a), faer_view(b)) {
+        // faer adds into C (or replaces it) but does not scale it: β·C first.
+        let accum = if beta == <T as Real>::ZERO {
+            Accum::Replace
+        } else {
+            if beta != <T as Real>::ONE {
+                scale(beta, (&mut *cd, cm, cn, crs, ccs));
+            }
+            Accum::Add
+        };
+        let cv = if ccs == 1 {
+            // The transpose of a column-major view, as faer's `MatRef` builds row-major
+            // views: faer 0.23.2's `MatMut::from_row_major_slice_with_stride_mut` swaps the
+            // two strides (it builds a column-major view), which the strided-product test
+            // below caught.
+            MatMut::from_column_major_slice_with_stride_mut(cd, cn, cm, crs).transpose_mut()
+        } else {
+            MatMut::from_column_major_slice_with_stride_mut(cd, cm, cn, ccs)
+        };
+        faer::linalg::matmul::matmul(cv, accum, av, bv, alpha, Par::Seq);
         return;
     }
-    let av = DMatrixView::from_slice_with_strides(ad, am, ak, ars, acs);
-    let bv = DMatrixView::from_slice_with_strides(bd, bk, bn, brs, bcs);
-    let mut cv = DMatrixViewMut::from_slice_with_strides_mut(cd, cm, cn, crs, ccs);
-    cv.gemm(alpha, &av, &bv, beta);
+    thin_gemm(
+        alpha,
+        (ad, ars, acs),
+        (bd, brs, bcs),
+        beta,
+        (cd, crs, ccs),
+        (cm, ak, cn),
+    );
 }
 
-/// `C ← α·A·B + β·C` for thin shapes, with the loop order chosen for contiguous inner loops
+/// `C ← β·C` on a strided view.
+fn scale<T: Real>(beta: T, (cd, cm, cn, crs, ccs): (&mut [T], usize, usize, usize, usize)) {
+    for i in 0..cm {
+        for j in 0..cn {
+            cd[i * crs + j * ccs] *= beta;
+        }
+    }
+}
+
+/// `C ← α·A·B + β·C` for thin shapes (and operands without a contiguous direction), with the loop order chosen for contiguous inner loops
 /// (which the compiler vectorises): row-axpy when the rows of B and C are contiguous, dot
 /// products (lane-parallel, [`super::lanes::dot`]) when the rows of A and the columns of B
 /// are, a plain triple loop otherwise.
@@ -204,7 +244,7 @@ mod tests {
 
     #[test]
     fn strided_products_match_naive_loops() {
-        // Large enough (> 5 in every dimension) to take the matrixmultiply path.
+        // Large enough (> 5 in every dimension) to take faer's path.
         let (m, k, n) = (9, 7, 8);
         let a: Vec<f64> = (0..m * k)
             .map(|i| f64::from(u32::try_from(i).expect("small")) * 0.1 - 2.0)
@@ -250,5 +290,60 @@ mod tests {
         );
         let s: f64 = (0..k).map(|l| a[4 * k + l] * b[l * n + 1]).sum();
         assert!((t[4 * 3 + 1] - s).abs() < 1e-12, "thin product");
+    }
+
+    /// The output view in every layout the field could hand over: row-major with padded rows
+    /// (a stride above the column count), column-major with padded columns, and a view with no
+    /// contiguous direction (the loop fallback); entries outside the view stay untouched.
+    #[test]
+    fn padded_and_column_major_outputs_match_naive_loops() {
+        let (m, k, n) = (9, 7, 8);
+        let a: Vec<f64> = (0..m * k)
+            .map(|i| (f64::from(u32::try_from(i).expect("small")) * 0.29).cos())
+            .collect();
+        let b: Vec<f64> = (0..k * n)
+            .map(|i| (f64::from(u32::try_from(i).expect("small")) * 0.37).sin())
+            .collect();
+        let want = |i: usize, j: usize| -> f64 {
+            let s: f64 = (0..k).map(|l| a[i * k + l] * b[l * n + j]).sum();
+            1.5 * s - 0.25 * f64::from(u32::try_from(i * 100 + j).expect("small"))
+        };
+        // (row stride, column stride, buffer length) of C.
+        for (crs, ccs, len) in [
+            (n + 3, 1, m * (n + 3)),
+            (1, m + 2, n * (m + 2)),
+            (2 * n, 2, 2 * m * n),
+        ] {
+            let mut c = vec![7.0; len];
+            for i in 0..m {
+                for j in 0..n {
+                    c[i * crs + j * ccs] = f64::from(u32::try_from(i * 100 + j).expect("small"));
+                }
+            }
+            f64::gemm(
+                1.5,
+                row_major(&a, m, k),
+                row_major(&b, k, n),
+                -0.25,
+                (&mut c, m, n, crs, ccs),
+            );
+            let mut inside = vec![false; len];
+            for i in 0..m {
+                for j in 0..n {
+                    let got = c[i * crs + j * ccs];
+                    assert!(
+                        (got - want(i, j)).abs() < 1e-12,
+                        "strides ({crs}, {ccs}) entry ({i}, {j}): {got}"
+                    );
+                    inside[i * crs + j * ccs] = true;
+                }
+            }
+            for (v, _) in c.iter().zip(&inside).filter(|(_, inside)| !**inside) {
+                assert!(
+                    v.to_bits() == 7.0f64.to_bits(),
+                    "strides ({crs}, {ccs}): padding written"
+                );
+            }
+        }
     }
 }
