@@ -12,7 +12,6 @@
 //! weights (gain 1), zero biases: the initial velocity is small but not zero.
 
 use super::gemm::{Gemm, row_major, transposed};
-use super::lanes::LANES;
 use super::profile::{FieldProfile, GemmTimer};
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
@@ -196,28 +195,26 @@ impl Mlp {
         let (f, w) = (self.input, self.width);
         let p = params;
         let mut gemm = GemmTimer::new(profile);
-        fill_rows(&mut act.trunk[..rows * w], &p[self.b0()..self.w1()]);
         gemm.time(|| {
             T::gemm(
                 T::ONE,
                 row_major(&features[..rows * f], rows, f),
                 transposed(&p[..self.b0()], w, f),
-                T::ONE,
+                T::ZERO,
                 (&mut act.trunk[..rows * w], rows, w, w, 1),
             );
         });
-        relu(&mut act.trunk[..rows * w]);
-        fill_rows(&mut act.heads[..rows * 3 * w], &p[self.b1()..self.w2()]);
+        bias_relu(&mut act.trunk[..rows * w], &p[self.b0()..self.w1()]);
         gemm.time(|| {
             T::gemm(
                 T::ONE,
                 row_major(&act.trunk[..rows * w], rows, w),
                 transposed(&p[self.w1()..self.b1()], 3 * w, w),
-                T::ONE,
+                T::ZERO,
                 (&mut act.heads[..rows * 3 * w], rows, 3 * w, 3 * w, 1),
             );
         });
-        relu(&mut act.heads[..rows * 3 * w]);
+        bias_relu(&mut act.heads[..rows * 3 * w], &p[self.b1()..self.w2()]);
         fill_rows(
             &mut act.raw[..rows * N_OUT],
             &p[self.b2()..self.scales_offset()],
@@ -284,12 +281,12 @@ impl Mlp {
             let w2 = self.w2() + 3 * h * w;
             // dW2_h += d_raw_hᵀ · relu(H_h)
             gemm.time(|| {
-                head_weight_grad(
-                    &work.d_raw[..rows * N_OUT],
-                    &act.heads[..rows * 3 * w],
-                    h,
-                    w,
-                    &mut d_params[w2..w2 + 3 * w],
+                T::gemm(
+                    T::ONE,
+                    (&work.d_raw[3 * h..], 3, rows, 1, N_OUT),
+                    (&act.heads[h * w..], rows, w, 3 * w, 1),
+                    T::ONE,
+                    (&mut d_params[w2..w2 + 3 * w], 3, w, w, 1),
                 );
             });
             // d relu(H_h) = d_raw_h · W2_h
@@ -363,10 +360,14 @@ fn fill_rows<T: Real>(dst: &mut [T], row: &[T]) {
     }
 }
 
-/// `x ← max(x, 0)` in place (NaN becomes 0).
-fn relu<T: Real>(x: &mut [T]) {
-    for v in x {
-        *v = if *v > T::ZERO { *v } else { T::ZERO };
+/// `x ← max(x + b, 0)` in place, `b` added to every row (NaN becomes 0): the bias and the
+/// rectifier of a layer in one pass over its product.
+fn bias_relu<T: Real>(x: &mut [T], bias: &[T]) {
+    for row in x.chunks_exact_mut(bias.len()) {
+        for (v, &b) in row.iter_mut().zip(bias) {
+            let y = *v + b;
+            *v = if y > T::ZERO { y } else { T::ZERO };
+        }
     }
 }
 
@@ -376,48 +377,6 @@ fn relu_mask<T: Real>(activated: &[T], grad: &mut [T]) {
     for (g, &v) in grad.iter_mut().zip(activated) {
         if v <= T::ZERO {
             *g = T::ZERO;
-        }
-    }
-}
-
-/// `dW2_h += d_raw_hᵀ · relu(H_h)` for head `h`: the 3 × W weight gradient of its output
-/// layer, from the rows' output gradients (9 per row, the head's at `3h..3h + 3`) and hidden
-/// activations (3W per row, the head's at `hW..hW + W`). A thin product (3 outputs), so done
-/// here rather than by the GEMM: [`LANES`] channels at a time with the three running sums in
-/// registers over all rows (each row read once per channel block, in row order).
-fn head_weight_grad<T: Real>(d_raw: &[T], heads: &[T], h: usize, w: usize, out: &mut [T]) {
-    let mut c0 = 0;
-    while c0 + LANES <= w {
-        head_weight_grad_block::<T, LANES>(d_raw, heads, h, w, c0, out);
-        c0 += LANES;
-    }
-    for c in c0..w {
-        head_weight_grad_block::<T, 1>(d_raw, heads, h, w, c, out);
-    }
-}
-
-/// [`head_weight_grad`] for channels `c0..c0 + B`.
-#[inline]
-fn head_weight_grad_block<T: Real, const B: usize>(
-    d_raw: &[T],
-    heads: &[T],
-    h: usize,
-    w: usize,
-    c0: usize,
-    out: &mut [T],
-) {
-    let mut acc = [[T::ZERO; B]; 3];
-    for (d, x) in d_raw.chunks_exact(N_OUT).zip(heads.chunks_exact(3 * w)) {
-        let x = &x[h * w + c0..h * w + c0 + B];
-        for (a, &d_i) in acc.iter_mut().zip(&d[3 * h..3 * h + 3]) {
-            for k in 0..B {
-                a[k] += d_i * x[k];
-            }
-        }
-    }
-    for (i, a) in acc.iter().enumerate() {
-        for (o, &v) in out[i * w + c0..i * w + c0 + B].iter_mut().zip(a) {
-            *o += v;
         }
     }
 }
