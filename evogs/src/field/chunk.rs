@@ -4,7 +4,7 @@
 //! scatter reads).
 
 use super::gemm::Gemm;
-use super::hexplane::{HexPlane, Lookup};
+use super::hexplane::{CellRecord, HexPlane, Lookup};
 use super::lanes::LANES;
 use super::mlp::{Mlp, MlpActivations, MlpWork, N_OUT};
 use super::profile::FieldProfile;
@@ -190,7 +190,7 @@ pub(super) fn decode_chunk_vjp<T: Gemm>(
     rows: usize,
     d_features: &[T],
     samples: &mut [T],
-    lks: &mut [Lookup<T>],
+    cells: &mut [CellRecord<T>],
     dss: &mut [T],
     d_pos: &mut [T],
 ) {
@@ -203,7 +203,7 @@ pub(super) fn decode_chunk_vjp<T: Gemm>(
             32,
             d_features,
             samples,
-            lks,
+            cells,
             grads,
         ),
         16 => decode_rows(
@@ -213,7 +213,7 @@ pub(super) fn decode_chunk_vjp<T: Gemm>(
             16,
             d_features,
             samples,
-            lks,
+            cells,
             grads,
         ),
         ch => decode_rows(
@@ -223,7 +223,7 @@ pub(super) fn decode_chunk_vjp<T: Gemm>(
             ch,
             d_features,
             samples,
-            lks,
+            cells,
             grads,
         ),
     }
@@ -238,7 +238,7 @@ fn decode_rows<T: Gemm>(
     ch: usize,
     d_features: &[T],
     samples: &mut [T],
-    lks: &mut [Lookup<T>],
+    cells: &mut [CellRecord<T>],
     (dss, d_pos): (&mut [T], &mut [T]),
 ) {
     let fd = hex.feature_dim();
@@ -252,16 +252,17 @@ fn decode_rows<T: Gemm>(
             // Records are plane-major within the chunk, so the scatter streams each plane's
             // records: lookup q of this level and row is record (l·6 + q)·rows + r.
             let record = |q: usize| (l * 6 + q) * rows + r;
+            let mut lks = [Lookup::default(); 6];
             for (q, s_q) in smp.chunks_exact_mut(ch).enumerate() {
-                let lk = hex.lookup(l, q, &c);
-                HexPlane::sample(params, &lk, s_q);
-                lks[record(q)] = lk;
+                lks[q] = hex.lookup(l, q, &c);
+                HexPlane::sample(params, &lks[q], s_q);
+                cells[record(q)] = hex.cell_record(l, q, &lks[q]);
             }
             leave_one_out(d_f, smp, core::array::from_fn(|q| record(q) * ch), dss);
             // Last plane first: the position gradient sums in the order it always has.
             for q in (0..6).rev() {
                 let ds = &dss[record(q) * ch..(record(q) + 1) * ch];
-                let (gu, gv) = HexPlane::sample_coord_grad(params, &lks[record(q)], ds);
+                let (gu, gv) = HexPlane::sample_coord_grad(params, &lks[q], ds);
                 let (i, j) = super::hexplane::PLANE_AXES[q];
                 d_c[i] += gu;
                 d_c[j] += gv;

@@ -146,6 +146,19 @@ pub struct Lookup<T> {
     pub dv: T,
 }
 
+/// What the plane-gradient scatter keeps of a [`Lookup`]: the offset of corner (col0, row0),
+/// channel 0, within its plane, and the two fractions (12 bytes in f32 against the 40 of a
+/// `Lookup`; the strides are the plane's, and the scatter reads no `du`, `dv`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CellRecord<T> {
+    /// Offset of corner (col0, row0), channel 0, from the start of the plane.
+    pub offset: u32,
+    /// Fraction along the columns.
+    pub fx: T,
+    /// Fraction along the rows.
+    pub fy: T,
+}
+
 /// `u = (c + 1)/2·(n − 1)` clamped, split into cell and fraction; returns (cell, frac, du/dc).
 #[inline]
 fn axis<T: Real>(c: T, n: usize) -> (usize, T, T) {
@@ -198,6 +211,14 @@ impl HexPlane {
             assert!(
                 res.iter().all(|&r| r >= 2),
                 "HexPlane resolutions must be at least 2"
+            );
+            let plane_max = res[0].max(res[1]).max(res[2]).max(res[3]);
+            assert!(
+                plane_max
+                    .checked_mul(plane_max)
+                    .and_then(|v| v.checked_mul(cfg.channels))
+                    .is_some_and(|v| u32::try_from(v).is_ok()),
+                "a HexPlane plane must hold fewer than 2^32 values"
             );
             let mut level = [PlaneLayout {
                 offset: 0,
@@ -319,6 +340,38 @@ impl HexPlane {
             fy,
             du,
             dv,
+        }
+    }
+
+    /// The scatter's record of lookup `lk` of plane `p`, level `l`.
+    #[inline]
+    #[must_use]
+    pub fn cell_record<T: Real>(&self, l: usize, p: usize, lk: &Lookup<T>) -> CellRecord<T> {
+        #[allow(
+            clippy::cast_possible_truncation,
+            reason = "a plane holds fewer than 2^32 values (checked in new)"
+        )]
+        let offset = (lk.base - self.planes[l][p].offset) as u32;
+        CellRecord {
+            offset,
+            fx: lk.fx,
+            fy: lk.fy,
+        }
+    }
+
+    /// The lookup of a scatter record of plane `p`, level `l`, with its base relative to
+    /// the start of the plane (and `du`, `dv` zero: the scatter does not read them).
+    #[inline]
+    #[must_use]
+    pub fn plane_lookup<T: Real>(&self, l: usize, p: usize, cell: &CellRecord<T>) -> Lookup<T> {
+        Lookup {
+            base: cell.offset as usize,
+            col_step: self.channels,
+            row_step: self.planes[l][p].width * self.channels,
+            fx: cell.fx,
+            fy: cell.fy,
+            du: T::ZERO,
+            dv: T::ZERO,
         }
     }
 

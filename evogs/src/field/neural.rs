@@ -31,7 +31,7 @@
 
 use super::chunk::{CHUNK, ChunkRecord, ChunkWork, decode_chunk_vjp, forward_chunk};
 use super::gemm::Gemm;
-use super::hexplane::{HexPlane, HexPlaneConfig, Lookup, TimeMapping};
+use super::hexplane::{CellRecord, HexPlane, HexPlaneConfig, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
 use super::profile::FieldProfile;
 use evogs_math::Par;
@@ -117,7 +117,7 @@ struct ChunkVjp<'a, T> {
     /// This chunk's MLP parameter gradient.
     partial: &'a mut [T],
     /// The plane lookups of the chunk's rows.
-    lookups: &'a mut [Lookup<T>],
+    lookups: &'a mut [CellRecord<T>],
     /// The gradient of each looked-up sample.
     d_samples: &'a mut [T],
     /// The position gradients of the chunk's rows (3 each).
@@ -137,7 +137,7 @@ pub struct NeuralField<T> {
     count: usize,
     par: Par,
     partials: Vec<T>,
-    lookups: Vec<Lookup<T>>,
+    lookups: Vec<CellRecord<T>>,
     d_samples: Vec<T>,
     d_pos: Vec<T>,
     /// The record of evaluations made without one of the caller's, and of the forward pass
@@ -378,7 +378,7 @@ impl<T: Gemm> NeuralField<T> {
         let n_mlp = self.mlp.n_params();
         self.partials.clear();
         self.partials.resize(n_chunks * n_mlp, T::ZERO);
-        self.lookups.resize(n * n_lk, Lookup::default());
+        self.lookups.resize(n * n_lk, CellRecord::default());
         self.d_samples.resize(n * n_lk * ch, T::ZERO);
         self.d_pos.clear();
         self.d_pos.resize(n * 3, T::ZERO);
@@ -462,7 +462,7 @@ impl<T: Gemm> NeuralField<T> {
         let hex = &self.hex;
         let n_lk = hex.n_lookups();
         let ch = hex.channels();
-        let mut slices: Vec<(usize, usize, &mut [T])> = Vec::with_capacity(n_lk);
+        let mut slices: Vec<((usize, usize), &mut [T])> = Vec::with_capacity(n_lk);
         let mut rest = d_grid;
         let mut consumed = 0;
         for l in 0..hex.levels() {
@@ -470,23 +470,22 @@ impl<T: Gemm> NeuralField<T> {
                 let r = hex.plane_range(l, p);
                 debug_assert_eq!(r.start, consumed, "planes are contiguous");
                 let (head, tail) = rest.split_at_mut(r.len());
-                slices.push((l * 6 + p, r.start, head));
+                slices.push(((l, p), head));
                 rest = tail;
                 consumed = r.end;
             }
         }
         let (lookups, d_samples) = (&self.lookups, &self.d_samples);
-        let work = |(k, start, plane): (usize, usize, &mut [T])| {
+        let work = |((l, p), plane): ((usize, usize), &mut [T])| {
+            let k = l * 6 + p;
             for c0 in (0..n).step_by(CHUNK) {
                 // The chunk's records of plane k are contiguous (see decode_chunk_vjp).
                 let rows = CHUNK.min(n - c0);
                 let first = c0 * n_lk + k * rows;
                 let lks = &lookups[first..first + rows];
                 let gs = &d_samples[first * ch..(first + rows) * ch];
-                for (lk, g) in lks.iter().zip(gs.chunks_exact(ch)) {
-                    let mut lk = *lk;
-                    lk.base -= start;
-                    HexPlane::scatter(plane, &lk, g);
+                for (cell, g) in lks.iter().zip(gs.chunks_exact(ch)) {
+                    HexPlane::scatter(plane, &hex.plane_lookup(l, p, cell), g);
                 }
             }
         };
@@ -506,7 +505,7 @@ type ChunkZip<'a, T> = (
     usize,
     (
         (
-            ((&'a mut [T], &'a mut [Lookup<T>]), &'a mut [T]),
+            ((&'a mut [T], &'a mut [CellRecord<T>]), &'a mut [T]),
             &'a mut [T],
         ),
         (&'a ChunkRecord<T>, &'a mut ChunkWork<T>),
