@@ -10,8 +10,10 @@ use super::mlp::{Mlp, MlpActivations, MlpWork, N_OUT};
 use super::profile::FieldProfile;
 use evogs_math::Real;
 
-/// Gaussians per work chunk.
-pub const CHUNK: usize = 256;
+/// Gaussians per work chunk. 512 against 256 took 6 % off the bench's iteration at both
+/// N = 20 000 and 5 000 (larger matrix products); 1024 leaves too few chunks at N = 5 000
+/// to share between two threads (`docs/performance.md`).
+pub const CHUNK: usize = 512;
 
 /// What a [`FieldRecord`](super::neural::FieldRecord) keeps of one chunk for the VJP: the
 /// features and the MLP's activations (the plane samples are not kept: the VJP reads the same
