@@ -100,16 +100,20 @@ impl<T: Gemm> Model<T> {
         self.stepper_for(layout, stepper)
     }
 
-    /// The cached stepper if it has `layout`, else a new one.
+    /// The cached stepper if it has `layout`, else a new one; either way with the field's
+    /// parallelism for its per-Gaussian block updates (bitwise the same results on any
+    /// thread count).
     pub(super) fn stepper_for(
         &self,
         layout: evogs_ode::StateLayout,
         stepper: &mut Option<Stepper<T>>,
     ) -> Stepper<T> {
-        match stepper.take() {
+        let mut st = match stepper.take() {
             Some(s) if *s.layout() == layout => s,
             _ => Stepper::new(self.method, layout),
-        }
+        };
+        st.set_par(self.field.par());
+        st
     }
 
     /// The time grid from anchor `k` to `t`.

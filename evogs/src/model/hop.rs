@@ -306,11 +306,13 @@ impl<T: Gemm> Model<T> {
         self.field.set_count(count);
         let trajectory = match self.hop.law {
             HopLaw::FirstOrder => {
-                let mut st = Stepper::new(self.method, VectorField::layout(&self.field));
+                let mut st = Stepper::new(self.method, VectorField::layout(&self.field))
+                    .with_par(self.field.par());
                 integrate_trajectory(&mut self.field, &mut st, grid, y, Checkpointing::StoreAll)
             }
             HopLaw::SecondOrder => {
-                let mut st = Stepper::new(self.method, second_order_layout(count));
+                let mut st = Stepper::new(self.method, second_order_layout(count))
+                    .with_par(self.field.par());
                 let mut law = SecondOrderField::new(&mut self.field, count);
                 integrate_trajectory(&mut law, &mut st, grid, y, Checkpointing::StoreAll)
             }
@@ -334,7 +336,8 @@ impl<T: Gemm> Model<T> {
         self.field.set_count(count);
         match self.hop.law {
             HopLaw::FirstOrder => {
-                let mut st = Stepper::new(self.method, VectorField::layout(&self.field));
+                let mut st = Stepper::new(self.method, VectorField::layout(&self.field))
+                    .with_par(self.field.par());
                 discrete_adjoint(
                     &mut self.field,
                     &mut st,
@@ -345,7 +348,8 @@ impl<T: Gemm> Model<T> {
                 );
             }
             HopLaw::SecondOrder => {
-                let mut st = Stepper::new(self.method, second_order_layout(count));
+                let mut st = Stepper::new(self.method, second_order_layout(count))
+                    .with_par(self.field.par());
                 let mut law = SecondOrderField::new(&mut self.field, count);
                 discrete_adjoint(&mut law, &mut st, trajectory, d_final, &mut d_y0, d_params);
             }
