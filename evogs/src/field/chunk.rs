@@ -4,7 +4,7 @@
 //! scatter reads).
 
 use super::gemm::Gemm;
-use super::hexplane::{CellRecord, HexPlane, Lookup};
+use super::hexplane::{CellRecord, HexPlane};
 use super::lanes::LANES;
 use super::mlp::{Mlp, MlpActivations, MlpWork, N_OUT};
 use super::profile::FieldProfile;
@@ -98,10 +98,11 @@ fn encode_rows<T: Gemm>(
         let (c, _) = hex.coords(p, t);
         for l in 0..hex.levels() {
             let feat = &mut features[r * fd + l * ch..r * fd + (l + 1) * ch];
+            let lks = hex.level_lookups(l, &c);
             // 1·s₀ is s₀ exactly, so the first plane is written, not multiplied in.
-            HexPlane::sample(params, &hex.lookup(l, 0, &c), feat);
-            for q in 1..6 {
-                HexPlane::sample_mul(params, &hex.lookup(l, q, &c), feat);
+            HexPlane::sample(params, &lks[0], feat);
+            for lk in &lks[1..] {
+                HexPlane::sample_mul(params, lk, feat);
             }
         }
     }
@@ -136,6 +137,7 @@ pub(super) fn forward_chunk<T: Gemm>(
 /// `smp[q·C..(q+1)·C]`), written to `out[at[q]..at[q] + C]`: prefix and suffix products, no
 /// division. [`LANES`] channels at a time (then one at a time for the rest), so the running
 /// products stay in registers and each output is written once, unmasked.
+#[inline(always)]
 fn leave_one_out<T: Real>(d_f: &[T], smp: &[T], at: [usize; 6], out: &mut [T]) {
     let ch = d_f.len();
     let mut c0 = 0;
@@ -254,9 +256,8 @@ fn decode_rows<T: Gemm>(
             // Records are plane-major within the chunk, so the scatter streams each plane's
             // records: lookup q of this level and row is record (l·6 + q)·rows + r.
             let record = |q: usize| (l * 6 + q) * rows + r;
-            let mut lks = [Lookup::default(); 6];
+            let lks = hex.level_lookups(l, &c);
             for (q, s_q) in smp.chunks_exact_mut(ch).enumerate() {
-                lks[q] = hex.lookup(l, q, &c);
                 HexPlane::sample(params, &lks[q], s_q);
                 cells[record(q)] = hex.cell_record(l, q, &lks[q]);
             }

@@ -329,8 +329,37 @@ impl HexPlane {
     pub fn lookup<T: Real>(&self, l: usize, p: usize, c: &[T; 4]) -> Lookup<T> {
         let pl = self.planes[l][p];
         let (i, j) = PLANE_AXES[p];
-        let (col, fx, du) = axis(c[i], pl.width);
-        let (row, fy, dv) = axis(c[j], pl.height);
+        self.lookup_from_cells(l, p, axis(c[i], pl.width), axis(c[j], pl.height))
+    }
+
+    /// The six lookups of level `l` at normalised coordinates `c`, each coordinate's cell and
+    /// fraction computed once for the three planes that share it (bitwise the six
+    /// [`lookup`](Self::lookup)s).
+    #[inline]
+    #[must_use]
+    pub fn level_lookups<T: Real>(&self, l: usize, c: &[T; 4]) -> [Lookup<T>; 6] {
+        let pl = &self.planes[l];
+        // Plane 0 is (x, y), 1 is (x, z), 2 is (x, t): their widths and heights are the
+        // resolutions of x, y, z and t at this level.
+        let res = [pl[0].width, pl[0].height, pl[1].height, pl[2].height];
+        let cells: [(usize, T, T); 4] = core::array::from_fn(|a| axis(c[a], res[a]));
+        core::array::from_fn(|p| {
+            let (i, j) = PLANE_AXES[p];
+            self.lookup_from_cells(l, p, cells[i], cells[j])
+        })
+    }
+
+    /// The lookup of plane `p`, level `l` from the cells of its two coordinates
+    /// (`(cell, fraction, d(cell units)/dc)` each, from `axis`).
+    #[inline]
+    fn lookup_from_cells<T: Real>(
+        &self,
+        l: usize,
+        p: usize,
+        (col, fx, du): (usize, T, T),
+        (row, fy, dv): (usize, T, T),
+    ) -> Lookup<T> {
+        let pl = self.planes[l][p];
         let ch = self.channels;
         Lookup {
             base: pl.offset + (row * pl.width + col) * ch,
@@ -484,4 +513,58 @@ fn corner_weights<T: Real>(fx: T, fy: T) -> (T, T, T, T) {
         (T::ONE - fx) * fy,
         fx * fy,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shared-axis lookups of a level are bitwise the six single lookups, inside the box,
+    /// clamped at both borders, at a cell edge and at NaN, on two levels of unequal
+    /// resolutions (time not multiplied).
+    #[test]
+    fn level_lookups_are_the_six_single_lookups() {
+        let cfg = HexPlaneConfig {
+            channels: 3,
+            resolution: [5, 7, 4, 6],
+            multires: vec![1, 3],
+        };
+        let hex = HexPlane::new(
+            &cfg,
+            [-1.0, -2.0, 0.0],
+            [1.0, 2.0, 3.0],
+            TimeMapping::Normalized {
+                t_min: 0.0,
+                t_max: 1.0,
+            },
+        );
+        let coords: [[f64; 4]; 5] = [
+            [0.1, -0.35, 0.72, -0.9],
+            [-1.5, 1.2, -1.0, 1.0],
+            [1.0, -1.0, 0.5, 0.0],
+            [0.25, 0.0, -0.999, 2.0],
+            [f64::NAN, 0.3, f64::NAN, -0.2],
+        ];
+        for c in &coords {
+            for l in 0..hex.levels() {
+                let shared = hex.level_lookups(l, c);
+                for (p, got) in shared.iter().enumerate() {
+                    let want = hex.lookup(l, p, c);
+                    assert_eq!(
+                        (got.base, got.col_step, got.row_step),
+                        (want.base, want.col_step, want.row_step),
+                        "level {l} plane {p} at {c:?}: offsets"
+                    );
+                    for (g, w) in [
+                        (got.fx, want.fx),
+                        (got.fy, want.fy),
+                        (got.du, want.du),
+                        (got.dv, want.dv),
+                    ] {
+                        assert_eq!(g.to_bits(), w.to_bits(), "level {l} plane {p} at {c:?}");
+                    }
+                }
+            }
+        }
+    }
 }
