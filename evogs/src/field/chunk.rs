@@ -63,6 +63,28 @@ impl<T: Gemm> ChunkWork<T> {
     }
 }
 
+/// Runs `$body` with `$ch` bound to the channel count `$n`: as a constant where `$n` is one
+/// of the presets' counts (32, 16), so that the channel loops in `$body` are compiled for it
+/// (no tails, no per-loop bounds), and as a run-time value otherwise. The same operations
+/// either way, so the same bits. The kernels `$body` calls on the channels are
+/// `#[inline(always)]`: three copies of the body would otherwise exceed the inliner's budget
+/// and leave them as calls with run-time lengths.
+macro_rules! with_channels {
+    ($n:expr, |$ch:ident| $body:block) => {
+        match $n {
+            32 => {
+                let $ch: usize = 32;
+                $body
+            }
+            16 => {
+                let $ch: usize = 16;
+                $body
+            }
+            $ch => $body,
+        }
+    };
+}
+
 /// Samples every plane for `rows` positions and forms the features (the Hadamard product of
 /// a level's six samples, each sample multiplied straight into the features).
 fn encode_chunk<T: Gemm>(
@@ -74,38 +96,22 @@ fn encode_chunk<T: Gemm>(
     rows: usize,
     features: &mut [T],
 ) {
-    // The presets' channel counts as constants: the channel loops are specialised to them.
-    match hex.channels() {
-        32 => encode_rows(hex, params, (t, pos, stride, rows), 32, features),
-        16 => encode_rows(hex, params, (t, pos, stride, rows), 16, features),
-        ch => encode_rows(hex, params, (t, pos, stride, rows), ch, features),
-    }
-}
-
-/// [`encode_chunk`] with `ch = hex.channels()` passed in, so that a constant `ch` at a call
-/// site specialises the channel loops (always inlined).
-#[inline(always)]
-fn encode_rows<T: Gemm>(
-    hex: &HexPlane,
-    params: &[T],
-    (t, pos, stride, rows): (T, &[T], usize, usize),
-    ch: usize,
-    features: &mut [T],
-) {
     let fd = hex.feature_dim();
-    for r in 0..rows {
-        let p = [pos[r * stride], pos[r * stride + 1], pos[r * stride + 2]];
-        let (c, _) = hex.coords(p, t);
-        for l in 0..hex.levels() {
-            let feat = &mut features[r * fd + l * ch..r * fd + (l + 1) * ch];
-            let lks = hex.level_lookups(l, &c);
-            // 1·s₀ is s₀ exactly, so the first plane is written, not multiplied in.
-            HexPlane::sample(params, &lks[0], feat);
-            for lk in &lks[1..] {
-                HexPlane::sample_mul(params, lk, feat);
+    with_channels!(hex.channels(), |ch| {
+        for r in 0..rows {
+            let p = [pos[r * stride], pos[r * stride + 1], pos[r * stride + 2]];
+            let (c, _) = hex.coords(p, t);
+            for l in 0..hex.levels() {
+                let feat = &mut features[r * fd + l * ch..r * fd + (l + 1) * ch];
+                let lks = hex.level_lookups(l, &c);
+                // 1·s₀ is s₀ exactly, so the first plane is written, not multiplied in.
+                HexPlane::sample(params, &lks[0], feat);
+                for lk in &lks[1..] {
+                    HexPlane::sample_mul(params, lk, feat);
+                }
             }
         }
-    }
+    });
 }
 
 /// The forward pass of one chunk: the HexPlane features of `rows` positions, then the MLP
@@ -151,7 +157,7 @@ fn leave_one_out<T: Real>(d_f: &[T], smp: &[T], at: [usize; 6], out: &mut [T]) {
 }
 
 /// [`leave_one_out`] for channels `c0..c0 + W`.
-#[inline]
+#[inline(always)]
 fn leave_one_out_block<T: Real, const W: usize>(
     d_f: &[T],
     smp: &[T],
@@ -198,81 +204,36 @@ pub(super) fn decode_chunk_vjp<T: Gemm>(
     dss: &mut [T],
     d_pos: &mut [T],
 ) {
-    let grads = (dss, d_pos);
-    match hex.channels() {
-        32 => decode_rows(
-            hex,
-            params,
-            (t, pos, stride, rows),
-            32,
-            d_features,
-            samples,
-            cells,
-            grads,
-        ),
-        16 => decode_rows(
-            hex,
-            params,
-            (t, pos, stride, rows),
-            16,
-            d_features,
-            samples,
-            cells,
-            grads,
-        ),
-        ch => decode_rows(
-            hex,
-            params,
-            (t, pos, stride, rows),
-            ch,
-            d_features,
-            samples,
-            cells,
-            grads,
-        ),
-    }
-}
-
-/// [`decode_chunk_vjp`] with `ch = hex.channels()` passed in (see [`encode_rows`]).
-#[inline(always)]
-fn decode_rows<T: Gemm>(
-    hex: &HexPlane,
-    params: &[T],
-    (t, pos, stride, rows): (T, &[T], usize, usize),
-    ch: usize,
-    d_features: &[T],
-    samples: &mut [T],
-    cells: &mut [CellRecord<T>],
-    (dss, d_pos): (&mut [T], &mut [T]),
-) {
     let fd = hex.feature_dim();
-    let smp = &mut samples[..6 * ch];
-    for r in 0..rows {
-        let p = [pos[r * stride], pos[r * stride + 1], pos[r * stride + 2]];
-        let (c, dcdp) = hex.coords(p, t);
-        let mut d_c = [T::ZERO; 4];
-        for l in 0..hex.levels() {
-            let d_f = &d_features[r * fd + l * ch..r * fd + (l + 1) * ch];
-            // Records are plane-major within the chunk, so the scatter streams each plane's
-            // records: lookup q of this level and row is record (l·6 + q)·rows + r.
-            let record = |q: usize| (l * 6 + q) * rows + r;
-            let lks = hex.level_lookups(l, &c);
-            for (q, s_q) in smp.chunks_exact_mut(ch).enumerate() {
-                HexPlane::sample(params, &lks[q], s_q);
-                cells[record(q)] = hex.cell_record(l, q, &lks[q]);
+    with_channels!(hex.channels(), |ch| {
+        let smp = &mut samples[..6 * ch];
+        for r in 0..rows {
+            let p = [pos[r * stride], pos[r * stride + 1], pos[r * stride + 2]];
+            let (c, dcdp) = hex.coords(p, t);
+            let mut d_c = [T::ZERO; 4];
+            for l in 0..hex.levels() {
+                let d_f = &d_features[r * fd + l * ch..r * fd + (l + 1) * ch];
+                // Records are plane-major within the chunk, so the scatter streams each
+                // plane's records: lookup q of this level and row is record (l·6 + q)·rows + r.
+                let record = |q: usize| (l * 6 + q) * rows + r;
+                let lks = hex.level_lookups(l, &c);
+                for (q, s_q) in smp.chunks_exact_mut(ch).enumerate() {
+                    HexPlane::sample(params, &lks[q], s_q);
+                    cells[record(q)] = hex.cell_record(l, q, &lks[q]);
+                }
+                leave_one_out(d_f, smp, core::array::from_fn(|q| record(q) * ch), dss);
+                // Last plane first: the position gradient sums in the order it always has.
+                for q in (0..6).rev() {
+                    let ds = &dss[record(q) * ch..(record(q) + 1) * ch];
+                    let (gu, gv) = HexPlane::sample_coord_grad(params, &lks[q], ds);
+                    let (i, j) = super::hexplane::PLANE_AXES[q];
+                    d_c[i] += gu;
+                    d_c[j] += gv;
+                }
             }
-            leave_one_out(d_f, smp, core::array::from_fn(|q| record(q) * ch), dss);
-            // Last plane first: the position gradient sums in the order it always has.
-            for q in (0..6).rev() {
-                let ds = &dss[record(q) * ch..(record(q) + 1) * ch];
-                let (gu, gv) = HexPlane::sample_coord_grad(params, &lks[q], ds);
-                let (i, j) = super::hexplane::PLANE_AXES[q];
-                d_c[i] += gu;
-                d_c[j] += gv;
+            for a in 0..3 {
+                d_pos[r * 3 + a] = d_c[a] * dcdp[a];
             }
         }
-        for a in 0..3 {
-            d_pos[r * 3 + a] = d_c[a] * dcdp[a];
-        }
-    }
+    });
 }

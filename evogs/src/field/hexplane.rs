@@ -146,6 +146,22 @@ pub struct Lookup<T> {
     pub dv: T,
 }
 
+impl<T> Lookup<T> {
+    /// The four corner C-vectors `[p00, p10, p01, p11]` of the lookup's cell, `n` channels
+    /// each, from the flat parameters.
+    #[inline]
+    #[must_use]
+    pub fn corners<'a>(&self, params: &'a [T], n: usize) -> [&'a [T]; 4] {
+        let (b, r) = (self.base, self.base + self.row_step);
+        [
+            &params[b..b + n],
+            &params[b + self.col_step..b + self.col_step + n],
+            &params[r..r + n],
+            &params[r + self.col_step..r + self.col_step + n],
+        ]
+    }
+}
+
 /// What the plane-gradient scatter keeps of a [`Lookup`]: the offset of corner (col0, row0),
 /// channel 0, within its plane, and the two fractions (12 bytes in f32 against the 40 of a
 /// `Lookup`; the strides are the plane's, and the scatter reads no `du`, `dv`).
@@ -212,14 +228,6 @@ impl HexPlane {
                 res.iter().all(|&r| r >= 2),
                 "HexPlane resolutions must be at least 2"
             );
-            let plane_max = res[0].max(res[1]).max(res[2]).max(res[3]);
-            assert!(
-                plane_max
-                    .checked_mul(plane_max)
-                    .and_then(|v| v.checked_mul(cfg.channels))
-                    .is_some_and(|v| u32::try_from(v).is_ok()),
-                "a HexPlane plane must hold fewer than 2^32 values"
-            );
             let mut level = [PlaneLayout {
                 offset: 0,
                 width: 0,
@@ -231,7 +239,13 @@ impl HexPlane {
                     width: res[i],
                     height: res[j],
                 };
-                offset += res[i] * res[j] * cfg.channels;
+                let size = res[i] * res[j] * cfg.channels;
+                // Scatter records hold offsets within a plane as u32 (`CellRecord`).
+                assert!(
+                    u32::try_from(size).is_ok(),
+                    "a HexPlane plane must hold fewer than 2^32 values"
+                );
+                offset += size;
             }
             planes.push(level);
         }
@@ -335,7 +349,7 @@ impl HexPlane {
     /// The six lookups of level `l` at normalised coordinates `c`, each coordinate's cell and
     /// fraction computed once for the three planes that share it (bitwise the six
     /// [`lookup`](Self::lookup)s).
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn level_lookups<T: Real>(&self, l: usize, c: &[T; 4]) -> [Lookup<T>; 6] {
         let pl = &self.planes[l];
@@ -351,7 +365,7 @@ impl HexPlane {
 
     /// The lookup of plane `p`, level `l` from the cells of its two coordinates
     /// (`(cell, fraction, d(cell units)/dc)` each, from `axis`).
-    #[inline]
+    #[inline(always)]
     fn lookup_from_cells<T: Real>(
         &self,
         l: usize,
@@ -405,19 +419,10 @@ impl HexPlane {
     }
 
     /// Writes the sampled C-vector of a lookup into `out`.
-    #[inline]
+    #[inline(always)]
     pub fn sample<T: Real>(params: &[T], lk: &Lookup<T>, out: &mut [T]) {
         let (w00, w10, w01, w11) = corner_weights(lk.fx, lk.fy);
-        let b = lk.base;
-        let (p00, p10) = (
-            &params[b..b + out.len()],
-            &params[b + lk.col_step..b + lk.col_step + out.len()],
-        );
-        let r = b + lk.row_step;
-        let (p01, p11) = (
-            &params[r..r + out.len()],
-            &params[r + lk.col_step..r + lk.col_step + out.len()],
-        );
+        let [p00, p10, p01, p11] = lk.corners(params, out.len());
         for c in 0..out.len() {
             out[c] = w00 * p00[c] + w10 * p10[c] + w01 * p01[c] + w11 * p11[c];
         }
@@ -426,44 +431,25 @@ impl HexPlane {
     /// Multiplies `out` element-wise by the sampled C-vector of a lookup (`out_c ← out_c·s_c`,
     /// with `s_c` rounded exactly as [`sample`](Self::sample) rounds it): one factor of a
     /// level's Hadamard product.
-    #[inline]
+    #[inline(always)]
     pub fn sample_mul<T: Real>(params: &[T], lk: &Lookup<T>, out: &mut [T]) {
         let (w00, w10, w01, w11) = corner_weights(lk.fx, lk.fy);
-        let n = out.len();
-        let b = lk.base;
-        let (p00, p10) = (
-            &params[b..b + n],
-            &params[b + lk.col_step..b + lk.col_step + n],
-        );
-        let r = b + lk.row_step;
-        let (p01, p11) = (
-            &params[r..r + n],
-            &params[r + lk.col_step..r + lk.col_step + n],
-        );
-        for c in 0..n {
+        let [p00, p10, p01, p11] = lk.corners(params, out.len());
+        for c in 0..out.len() {
             out[c] *= w00 * p00[c] + w10 * p10[c] + w01 * p01[c] + w11 * p11[c];
         }
     }
 
     /// The gradient of `Σ_c g_c·s_c` (s the sampled vector) with respect to the lookup's two
     /// normalised coordinates: `(∂/∂c_i, ∂/∂c_j)`.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn sample_coord_grad<T: Gemm>(params: &[T], lk: &Lookup<T>, g: &[T]) -> (T, T) {
         if lk.du == T::ZERO && lk.dv == T::ZERO {
             return (T::ZERO, T::ZERO);
         }
         let n = g.len();
-        let b = lk.base;
-        let r = b + lk.row_step;
-        let (p00, p10) = (
-            &params[b..b + n],
-            &params[b + lk.col_step..b + lk.col_step + n],
-        );
-        let (p01, p11) = (
-            &params[r..r + n],
-            &params[r + lk.col_step..r + lk.col_step + n],
-        );
+        let [p00, p10, p01, p11] = lk.corners(params, n);
         // Channel c goes to lane c mod LANES (fixed order, vectorised): the whole blocks in
         // the scalar type's lane kernel, then the tail channel by channel.
         let mut acc = ([T::ZERO; LANES], [T::ZERO; LANES]);
