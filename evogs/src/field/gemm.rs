@@ -88,8 +88,8 @@ fn gemm_impl<T: Real + faer::traits::ComplexField>(
     if cm == 0 || cn == 0 {
         return;
     }
-    let general = ccs == 1 || crs == 1;
-    if let (true, Some(av), Some(bv)) = (general, faer_view(a), faer_view(b)) {
+    let c_contiguous = ccs == 1 || crs == 1;
+    if let (true, Some(av), Some(bv)) = (c_contiguous, faer_view(a), faer_view(b)) {
         // faer adds into C (or replaces it) but does not scale it: β·C first.
         let accum = if beta == <T as Real>::ZERO {
             Accum::Replace
@@ -130,8 +130,8 @@ fn scale<T: Real>(beta: T, (cd, cm, cn, crs, ccs): (&mut [T], usize, usize, usiz
     }
 }
 
-/// `C ← α·A·B + β·C` for operands without a contiguous direction (and small tests), with the loop order chosen for contiguous inner loops
-/// (which the compiler vectorises): row-axpy when the rows of B and C are contiguous, dot
+/// `C ← α·A·B + β·C` for operands without a contiguous direction, with the loop order
+/// chosen for contiguous inner loops (which the compiler vectorises): row-axpy when the rows of B and C are contiguous, dot
 /// products (lane-parallel, [`super::lanes::dot`]) when the rows of A and the columns of B
 /// are, a plain triple loop otherwise.
 fn strided_gemm<T: Real>(
@@ -243,7 +243,7 @@ mod tests {
 
     #[test]
     fn strided_products_match_naive_loops() {
-        // Large enough (> 5 in every dimension) to take faer's path.
+        // Every operand contiguous in one direction: faer's path.
         let (m, k, n) = (9, 7, 8);
         let a: Vec<f64> = (0..m * k)
             .map(|i| f64::from(u32::try_from(i).expect("small")) * 0.1 - 2.0)

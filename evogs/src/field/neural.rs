@@ -116,8 +116,8 @@ struct ChunkVjp<'a, T> {
     index: usize,
     /// This chunk's MLP parameter gradient.
     partial: &'a mut [T],
-    /// The plane lookups of the chunk's rows.
-    lookups: &'a mut [CellRecord<T>],
+    /// The scatter records of the chunk's plane lookups.
+    cells: &'a mut [CellRecord<T>],
     /// The gradient of each looked-up sample.
     d_samples: &'a mut [T],
     /// The position gradients of the chunk's rows (3 each).
@@ -137,7 +137,7 @@ pub struct NeuralField<T> {
     count: usize,
     par: Par,
     partials: Vec<T>,
-    lookups: Vec<CellRecord<T>>,
+    cells: Vec<CellRecord<T>>,
     d_samples: Vec<T>,
     d_pos: Vec<T>,
     /// The record of evaluations made without one of the caller's, and of the forward pass
@@ -185,7 +185,7 @@ impl<T: Gemm> NeuralField<T> {
             count: 0,
             par: Par::Seq,
             partials: Vec::new(),
-            lookups: Vec::new(),
+            cells: Vec::new(),
             d_samples: Vec::new(),
             d_pos: Vec::new(),
             scratch: FieldRecord::default(),
@@ -378,7 +378,7 @@ impl<T: Gemm> NeuralField<T> {
         let n_mlp = self.mlp.n_params();
         self.partials.clear();
         self.partials.resize(n_chunks * n_mlp, T::ZERO);
-        self.lookups.resize(n * n_lk, CellRecord::default());
+        self.cells.resize(n * n_lk, CellRecord::default());
         self.d_samples.resize(n * n_lk * ch, T::ZERO);
         self.d_pos.clear();
         self.d_pos.resize(n * 3, T::ZERO);
@@ -386,7 +386,7 @@ impl<T: Gemm> NeuralField<T> {
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
         let profile = self.profile.as_deref();
         let run = |c: ChunkVjp<'_, T>| {
-            let rows = c.lookups.len() / n_lk;
+            let rows = c.cells.len() / n_lk;
             let pos = &positions[c.index * CHUNK * stride..];
             let d_o = &d_out[c.index * CHUNK * N_OUT..c.index * CHUNK * N_OUT + rows * N_OUT];
             mlp.backward(
@@ -409,7 +409,7 @@ impl<T: Gemm> NeuralField<T> {
                 rows,
                 &c.work.d_features,
                 &mut c.work.samples,
-                c.lookups,
+                c.cells,
                 c.d_samples,
                 c.d_pos,
             );
@@ -420,7 +420,7 @@ impl<T: Gemm> NeuralField<T> {
             Par::Seq => self
                 .partials
                 .chunks_mut(n_mlp)
-                .zip(self.lookups.chunks_mut(CHUNK * n_lk))
+                .zip(self.cells.chunks_mut(CHUNK * n_lk))
                 .zip(self.d_samples.chunks_mut(CHUNK * n_lk * ch))
                 .zip(self.d_pos.chunks_mut(CHUNK * 3))
                 .zip(records.iter().zip(works.iter_mut()))
@@ -432,7 +432,7 @@ impl<T: Gemm> NeuralField<T> {
                 use rayon::prelude::*;
                 self.partials
                     .par_chunks_mut(n_mlp)
-                    .zip(self.lookups.par_chunks_mut(CHUNK * n_lk))
+                    .zip(self.cells.par_chunks_mut(CHUNK * n_lk))
                     .zip(self.d_samples.par_chunks_mut(CHUNK * n_lk * ch))
                     .zip(self.d_pos.par_chunks_mut(CHUNK * 3))
                     .zip(records.par_iter().zip(works.par_iter_mut()))
@@ -475,16 +475,16 @@ impl<T: Gemm> NeuralField<T> {
                 consumed = r.end;
             }
         }
-        let (lookups, d_samples) = (&self.lookups, &self.d_samples);
+        let (cells, d_samples) = (&self.cells, &self.d_samples);
         let work = |((l, p), plane): ((usize, usize), &mut [T])| {
             let k = l * 6 + p;
             for c0 in (0..n).step_by(CHUNK) {
                 // The chunk's records of plane k are contiguous (see decode_chunk_vjp).
                 let rows = CHUNK.min(n - c0);
                 let first = c0 * n_lk + k * rows;
-                let lks = &lookups[first..first + rows];
+                let plane_cells = &cells[first..first + rows];
                 let gs = &d_samples[first * ch..(first + rows) * ch];
-                for (cell, g) in lks.iter().zip(gs.chunks_exact(ch)) {
+                for (cell, g) in plane_cells.iter().zip(gs.chunks_exact(ch)) {
                     HexPlane::scatter(plane, &hex.plane_lookup(l, p, cell), g);
                 }
             }
@@ -515,12 +515,12 @@ type ChunkZip<'a, T> = (
 impl<'a, T> ChunkVjp<'a, T> {
     /// Names the zipped slices of chunk `index`.
     fn from_zip(
-        (index, ((((partial, lookups), d_samples), d_pos), (record, work))): ChunkZip<'a, T>,
+        (index, ((((partial, cells), d_samples), d_pos), (record, work))): ChunkZip<'a, T>,
     ) -> Self {
         Self {
             index,
             partial,
-            lookups,
+            cells,
             d_samples,
             d_pos,
             record,
