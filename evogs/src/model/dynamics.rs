@@ -108,12 +108,18 @@ impl<T: Gemm> Model<T> {
         layout: evogs_ode::StateLayout,
         stepper: &mut Option<Stepper<T>>,
     ) -> Stepper<T> {
-        let mut st = match stepper.take() {
-            Some(s) if *s.layout() == layout => s,
-            _ => Stepper::new(self.method, layout),
-        };
-        st.set_par(self.field.par());
-        st
+        match stepper.take() {
+            Some(mut s) if *s.layout() == layout => {
+                s.set_par(self.field.par());
+                s
+            }
+            _ => self.new_stepper(layout),
+        }
+    }
+
+    /// A new stepper of the model's method for `layout`, with the field's parallelism.
+    pub(super) fn new_stepper(&self, layout: evogs_ode::StateLayout) -> Stepper<T> {
+        Stepper::new(self.method, layout).with_par(self.field.par())
     }
 
     /// The time grid from anchor `k` to `t`.

@@ -306,13 +306,11 @@ impl<T: Gemm> Model<T> {
         self.field.set_count(count);
         let trajectory = match self.hop.law {
             HopLaw::FirstOrder => {
-                let mut st = Stepper::new(self.method, VectorField::layout(&self.field))
-                    .with_par(self.field.par());
+                let mut st = self.new_stepper(VectorField::layout(&self.field));
                 integrate_trajectory(&mut self.field, &mut st, grid, y, Checkpointing::StoreAll)
             }
             HopLaw::SecondOrder => {
-                let mut st = Stepper::new(self.method, second_order_layout(count))
-                    .with_par(self.field.par());
+                let mut st = self.new_stepper(second_order_layout(count));
                 let mut law = SecondOrderField::new(&mut self.field, count);
                 integrate_trajectory(&mut law, &mut st, grid, y, Checkpointing::StoreAll)
             }
@@ -336,8 +334,7 @@ impl<T: Gemm> Model<T> {
         self.field.set_count(count);
         match self.hop.law {
             HopLaw::FirstOrder => {
-                let mut st = Stepper::new(self.method, VectorField::layout(&self.field))
-                    .with_par(self.field.par());
+                let mut st = self.new_stepper(VectorField::layout(&self.field));
                 discrete_adjoint(
                     &mut self.field,
                     &mut st,
@@ -348,8 +345,7 @@ impl<T: Gemm> Model<T> {
                 );
             }
             HopLaw::SecondOrder => {
-                let mut st = Stepper::new(self.method, second_order_layout(count))
-                    .with_par(self.field.par());
+                let mut st = self.new_stepper(second_order_layout(count));
                 let mut law = SecondOrderField::new(&mut self.field, count);
                 discrete_adjoint(&mut law, &mut st, trajectory, d_final, &mut d_y0, d_params);
             }
