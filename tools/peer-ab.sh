@@ -4,20 +4,20 @@
 # iterations after 2 warm-up ones. Prints every round (seconds per iteration, and evogs's
 # peak RSS in MiB), then per N the median of the round medians and the ratios.
 #
-#   PY=/tmp/peer/bin/python tools/peer-ab.sh BEFORE_BINARY AFTER_BINARY [N ...]
+#   PEER=path/to/evogs_torch.py PY=path/to/python tools/peer-ab.sh BEFORE AFTER [N ...]
 #
-# (from the project root, with ../shared/peer beside it; default N = 20000 5000).
-# ../shared/peer/compare.sh does the same for the one binary of the checkout.
+# PEER is the peer program (it is not part of this repository: docs/results.md says where it
+# comes from and how to install its Python); default N = 20000 5000.
 set -euo pipefail
 PY=${PY:-python3}
-PEER=${PEER:-../shared/peer/evogs_torch.py}
+PEER=${PEER:?set PEER to the peer program, evogs_torch.py (docs/results.md)}
 THREADS=${THREADS:-2}
 ROUNDS=${ROUNDS:-3}
 [ $# -ge 2 ] || { echo "usage: $0 BEFORE_BINARY AFTER_BINARY [N ...]" >&2; exit 2; }
 before=$1 after=$2; shift 2
 [ $# -gt 0 ] || set -- 20000 5000
 for bin in "$before" "$after"; do [ -x "$bin" ] || { echo "$bin: not an executable" >&2; exit 2; }; done
-[ -f "$PEER" ] || { echo "$PEER: no such file (is ../shared beside the project?)" >&2; exit 2; }
+[ -f "$PEER" ] || { echo "$PEER: no such file" >&2; exit 2; }
 ours() { # binary N -> "seconds peak_MiB"
   local j; j=$(mktemp)
   "$1" bench --gaussians "$2" --sizes paper --motions velocity --no-single-thread \
