@@ -22,7 +22,8 @@ pub struct PlaneRegWeights {
     pub l1_time: f64,
 }
 
-/// The unweighted regulariser values and the weighted total.
+/// The unweighted regulariser values and the weighted total. A term whose weight is zero
+/// is not evaluated: its value reads 0.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PlaneRegValues {
     /// Σ smoothness over spatial planes.
@@ -151,7 +152,9 @@ fn l1_to_one<T: Real>(plane: &[T], weight: f64, grad: &mut [T], par: Par) -> f64
 
 /// Evaluates the regularisers on the plane parameters (`params[..hex.n_params()]`) and adds
 /// the weighted gradient into `d_params`. `par` splits each plane into fixed runs of rows:
-/// the same bits on any thread count.
+/// the same bits on any thread count. A term of weight zero is skipped (it adds nothing to
+/// the total or the gradient; its unweighted value reads 0), so a training run that turns a
+/// regulariser off does not pay for it.
 pub fn plane_regularizers<T: Real>(
     hex: &HexPlane,
     params: &[T],
@@ -162,7 +165,7 @@ pub fn plane_regularizers<T: Real>(
     let mut v = PlaneRegValues::default();
     let ch = hex.channels();
     for l in 0..hex.levels() {
-        for p in SPACE_PLANES {
+        for p in SPACE_PLANES.into_iter().filter(|_| w.plane_tv != 0.0) {
             let r = hex.plane_range(l, p);
             let (rows, cols) = hex.plane_shape(l, p);
             v.plane_tv += smoothness(
@@ -177,15 +180,19 @@ pub fn plane_regularizers<T: Real>(
         for p in TIME_PLANES {
             let r = hex.plane_range(l, p);
             let (rows, cols) = hex.plane_shape(l, p);
-            v.time_smoothness += smoothness(
-                &params[r.clone()],
-                rows,
-                cols * ch,
-                w.time_smoothness,
-                &mut d_params[r.clone()],
-                par,
-            );
-            v.l1_time += l1_to_one(&params[r.clone()], w.l1_time, &mut d_params[r], par);
+            if w.time_smoothness != 0.0 {
+                v.time_smoothness += smoothness(
+                    &params[r.clone()],
+                    rows,
+                    cols * ch,
+                    w.time_smoothness,
+                    &mut d_params[r.clone()],
+                    par,
+                );
+            }
+            if w.l1_time != 0.0 {
+                v.l1_time += l1_to_one(&params[r.clone()], w.l1_time, &mut d_params[r], par);
+            }
         }
     }
     v.total =
@@ -286,6 +293,61 @@ mod tests {
                 acc / count
             );
         }
+    }
+
+    #[test]
+    fn a_term_of_weight_zero_is_skipped_and_the_others_are_unchanged() {
+        let cfg = HexPlaneConfig {
+            channels: 2,
+            resolution: [5, 6, 7, 8],
+            multires: vec![1, 2],
+        };
+        let hex = unit_box(&cfg);
+        let mut rng = SplitMix64::new(8);
+        let x: Vec<f64> = (0..hex.n_params()).map(|_| rng.uniform(0.0, 2.0)).collect();
+        let run = |w: PlaneRegWeights| {
+            let mut g = vec![0.25; x.len()];
+            let v = plane_regularizers(&hex, &x, &w, &mut g, Par::Seq);
+            (v, g.iter().map(|e| e.to_bits()).collect::<Vec<_>>())
+        };
+        let (tv, ts, l1) = (0.7, 1.3, 0.4);
+        let all = |plane_tv, time_smoothness, l1_time| PlaneRegWeights {
+            plane_tv,
+            time_smoothness,
+            l1_time,
+        };
+        let (none, untouched) = run(all(0.0, 0.0, 0.0));
+        assert_eq!(none, PlaneRegValues::default(), "nothing evaluated");
+        assert!(
+            untouched.iter().all(|&b| b == 0.25_f64.to_bits()),
+            "no gradient added"
+        );
+        // Each term alone, then with another's weight set to zero: the same value and
+        // gradient bits (the terms add into disjoint planes or in a fixed order).
+        let (both, g_both) = run(all(tv, 0.0, l1));
+        let (only_tv, _) = run(all(tv, 0.0, 0.0));
+        let (only_l1, _) = run(all(0.0, 0.0, l1));
+        assert!(both.plane_tv > 0.0 && both.l1_time > 0.0, "{both:?}");
+        let bits = |v: [f64; 2]| v.map(f64::to_bits);
+        assert_eq!(
+            both.time_smoothness.to_bits(),
+            0,
+            "the skipped term reads +0"
+        );
+        assert_eq!(
+            bits([both.plane_tv, both.l1_time]),
+            bits([only_tv.plane_tv, only_l1.l1_time])
+        );
+        let (full, g_full) = run(all(tv, ts, l1));
+        assert_eq!(
+            bits([full.plane_tv, full.l1_time]),
+            bits([both.plane_tv, both.l1_time])
+        );
+        assert!(full.time_smoothness > 0.0, "{full:?}");
+        assert_ne!(
+            g_full, g_both,
+            "time smoothness adds gradient when weighted"
+        );
     }
 
     #[test]

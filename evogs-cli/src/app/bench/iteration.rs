@@ -1,8 +1,8 @@
 //! One benchmark configuration as a training run in miniature: a [`Trainer`] on a model
 //! built as training builds one ([`build_model`]: canonical Gaussians, the neural field over
 //! their bounding box, one anchor at t = 0, RK4 with steps of 1/8) with one supervised view
-//! at t = 0.45, the dynamics on from the first iteration, no regularisers (they run with zero
-//! weights, as a step always runs them) and no densification; [`BenchRun::step`] is one
+//! at t = 0.45, the dynamics on from the first iteration, no regularisers (their weights are
+//! zero, so a step skips them, as the PyTorch peer runs without them) and no densification; [`BenchRun::step`] is one
 //! [`Trainer::step`], with the time of each phase.
 
 use super::report::Phases;

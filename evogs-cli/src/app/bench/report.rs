@@ -22,7 +22,7 @@ pub struct Phases {
     pub raster_backward: f64,
     /// Photometric loss (L1 and SSIM) and its image gradient.
     pub loss: f64,
-    /// The plane regularisers (zero weights here, run as every step runs them).
+    /// The step's regularisers (zero weights here, so the step skips them).
     pub regularizers: f64,
     /// The Adam step of every parameter group.
     pub optimizer: f64,
