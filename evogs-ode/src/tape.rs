@@ -12,7 +12,8 @@
 //! evaluates the earlier steps' stages again (into scratch records reused from step to step).
 //! Either way the gradient is bitwise the same as [`discrete_adjoint`](crate::discrete_adjoint)'s.
 
-use crate::{Stepper, TimeGrid, Trajectory, VectorField};
+use crate::stepper::{KeptStep, StageBuffers};
+use crate::{StateLayout, Stepper, TimeGrid, Trajectory, VectorField};
 use alloc::vec::Vec;
 use evogs_math::Real;
 
@@ -34,6 +35,9 @@ pub struct StageTape<T, R> {
     /// The kept steps' field records, step-major (possibly more, unused, from an earlier
     /// run).
     records: Vec<R>,
+    /// The kept steps' stage slopes, states and increments, one set per step (exchanged
+    /// with the stepper's buffers, never copied).
+    stages_kept: Vec<StageBuffers<T>>,
     /// Records for the stages the reverse pass evaluates again.
     scratch: Vec<R>,
 }
@@ -50,8 +54,17 @@ impl<T: Real, R: Default> StageTape<T, R> {
             first_kept: 0,
             outputs: Vec::new(),
             records: Vec::new(),
+            stages_kept: Vec::new(),
             scratch: Vec::new(),
         }
+    }
+
+    /// The scalars the tape keeps per kept stage of a state with this layout, beside the
+    /// field's record: the stage's field value, slope and increment (tangent length each)
+    /// and its state (ambient length).
+    #[must_use]
+    pub fn scalars_per_stage(layout: &StateLayout) -> usize {
+        3 * layout.tangent_len() + layout.ambient_len()
     }
 
     /// The most stage records the tape keeps.
@@ -66,6 +79,8 @@ impl<T: Real, R: Default> StageTape<T, R> {
         self.capacity = capacity;
         self.records.truncate(capacity);
         self.records.shrink_to_fit();
+        self.stages_kept.truncate(capacity);
+        self.stages_kept.shrink_to_fit();
     }
 
     /// Stage records the last recorded run kept (whole steps, at most the capacity).
@@ -87,15 +102,20 @@ impl<T: Real, R: Default> StageTape<T, R> {
         while self.records.len() < m {
             self.records.push(R::default());
         }
+        // Sized by the stepper on first use.
+        while self.stages_kept.len() < kept_steps {
+            self.stages_kept.push(StageBuffers::default());
+        }
     }
 
     /// The stage values and records of step `k`, if kept.
-    fn step_mut(&mut self, k: usize) -> Option<(&mut [T], &mut [R])> {
+    fn step_mut(&mut self, k: usize) -> Option<(&mut [T], &mut [R], &mut StageBuffers<T>)> {
         let j = k.checked_sub(self.first_kept)?;
         let (s, n) = (self.stages, self.dim);
         Some((
             &mut self.outputs[j * s * n..(j + 1) * s * n],
             &mut self.records[j * s..(j + 1) * s],
+            &mut self.stages_kept[j],
         ))
     }
 }
@@ -141,8 +161,8 @@ pub fn integrate_recorded<T: Real, F: VectorField<T> + ?Sized>(
     for k in 0..n {
         let (t, h) = grid.step(k);
         match tape.step_mut(k) {
-            Some((outputs, records)) => {
-                stepper.step_recorded(field, t, h, &mut y, outputs, records);
+            Some((outputs, records, stages)) => {
+                stepper.step_recorded(field, t, h, &mut y, outputs, records, stages);
             }
             None => stepper.step(field, t, h, &mut y),
         }
@@ -197,16 +217,16 @@ pub fn discrete_adjoint_recorded<T: Real, F: VectorField<T> + ?Sized>(
         let StageTape {
             outputs,
             records,
+            stages_kept,
             scratch,
             first_kept,
             dim,
             ..
         } = tape;
-        let kept = k.checked_sub(*first_kept).map(|j| {
-            (
-                &outputs[j * stages * *dim..(j + 1) * stages * *dim],
-                &records[j * stages..(j + 1) * stages],
-            )
+        let kept = k.checked_sub(*first_kept).map(|j| KeptStep {
+            outputs: &outputs[j * stages * *dim..(j + 1) * stages * *dim],
+            records: &records[j * stages..(j + 1) * stages],
+            stages: &mut stages_kept[j],
         });
         stepper.step_vjp_recorded(field, t, h, y, kept, scratch, lambda, d_params);
     }

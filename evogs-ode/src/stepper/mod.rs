@@ -136,11 +136,6 @@ pub(crate) enum StageValues<'a, T, R> {
         /// The field's records, one per stage.
         records: &'a mut [R],
     },
-    /// The values were recorded: copy stage `i`'s from `outputs[i·n..(i+1)·n]`.
-    Replay {
-        /// The recorded stage values (n each).
-        outputs: &'a [T],
-    },
 }
 
 impl<T: Real, R> StageValues<'_, T, R> {
@@ -162,9 +157,32 @@ impl<T: Real, R> StageValues<'_, T, R> {
                     o[i * n..(i + 1) * n].copy_from_slice(out);
                 }
             }
-            Self::Replay { outputs } => out.copy_from_slice(&outputs[i * n..(i + 1) * n]),
         }
     }
+}
+
+/// What one step's reverse pass reads of its stages besides the field values: the slopes
+/// `Kᵢ`, the states `Xᵢ` and the increments `Ωᵢ`, in the stepper's own layout. A
+/// [`StageTape`](crate::StageTape) keeps one per kept step, exchanged with the stepper's
+/// buffers (no copies): [`Stepper::step_recorded`] hands the step's stages over, and
+/// [`Stepper::step_vjp_recorded`] takes them back for the reverse pass instead of forming
+/// them again.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct StageBuffers<T> {
+    k: Vec<T>,
+    x: Vec<T>,
+    omega: Vec<T>,
+}
+
+/// What a [`StageTape`](crate::StageTape) kept of one step for its reverse pass
+/// ([`Stepper::step_vjp_recorded`]).
+pub(crate) struct KeptStep<'a, T, R> {
+    /// The stages' field values (n each).
+    pub(crate) outputs: &'a [T],
+    /// The field's records, one per stage.
+    pub(crate) records: &'a [R],
+    /// The stages' slopes, states and increments (lent back to the stepper meanwhile).
+    pub(crate) stages: &'a mut StageBuffers<T>,
 }
 
 /// The reverse-pass buffers (allocated on the first [`Stepper::step_vjp`]).
@@ -247,9 +265,10 @@ pub struct Stepper<T> {
     par: Par,
     /// Stage slopes `Kᵢ` (s·n).
     k: Vec<T>,
-    /// Stage state `Xᵢ` (ambient).
+    /// Stage states `Xᵢ` (s·ambient; stage 0's is unused: `X₀ = yₙ`). Every stage keeps
+    /// its own, so the reverse pass reads them instead of forming them again.
     x: Vec<T>,
-    /// Stage increments `Ωᵢ` of the current stage (n; SO(3) entries).
+    /// Stage increments `Ωᵢ` (s·n; SO(3) and SE(3) entries; stage 0's is unused: `Ω₀ = 0`).
     omega: Vec<T>,
     /// FSAL tableaux on non-Euclidean layouts: the last stage's field value `f(t_{n+1},
     /// y_{n+1})` before `Jl⁻¹` (the next step's `K₀`).
@@ -293,8 +312,8 @@ impl<T: Real> Stepper<T> {
             fsal: tableau.is_fsal(),
             par: Par::Seq,
             k: vec![T::ZERO; s * n],
-            x: vec![T::ZERO; layout.ambient_len()],
-            omega: vec![T::ZERO; n],
+            x: vec![T::ZERO; s * layout.ambient_len()],
+            omega: vec![T::ZERO; s * n],
             fsal_f: if tableau.is_fsal() && !layout.is_euclidean() {
                 vec![T::ZERO; n]
             } else {
@@ -380,7 +399,7 @@ impl<T: Real> Stepper<T> {
         upto: usize,
         values: &mut StageValues<'_, T, F::Record>,
     ) {
-        let n = self.n;
+        let (n, na) = (self.n, y.len());
         for i in 0..upto {
             let ti = t + self.c[i] * h;
             if i == 0 {
@@ -390,7 +409,8 @@ impl<T: Real> Stepper<T> {
                 }
             } else {
                 self.stage_point(i, h, y);
-                values.value(field, i, ti, &self.x, &mut self.k[i * n..(i + 1) * n]);
+                let xi = &self.x[i * na..(i + 1) * na];
+                values.value(field, i, ti, xi, &mut self.k[i * n..(i + 1) * n]);
                 if i + 1 == self.s && !self.fsal_f.is_empty() {
                     self.fsal_f.copy_from_slice(&self.k[i * n..(i + 1) * n]);
                 }
@@ -400,8 +420,10 @@ impl<T: Real> Stepper<T> {
     }
 
     /// One [`step`](Self::step) that also keeps, per stage `i`, the field value in
-    /// `outputs[i·n..(i+1)·n]` and the field's record in `records[i]` (for
-    /// [`step_vjp_recorded`](Self::step_vjp_recorded)).
+    /// `outputs[i·n..(i+1)·n]` and the field's record in `records[i]`, and the stages'
+    /// slopes, states and increments in `stages` (for
+    /// [`step_vjp_recorded`](Self::step_vjp_recorded)). The stepper's stage buffers then
+    /// hold what `stages` held: [`slopes`](Self::slopes) is not this step's.
     pub(crate) fn step_recorded<F: VectorField<T> + ?Sized>(
         &mut self,
         field: &mut F,
@@ -410,6 +432,7 @@ impl<T: Real> Stepper<T> {
         y: &mut [T],
         outputs: &mut [T],
         records: &mut [F::Record],
+        stages: &mut StageBuffers<T>,
     ) {
         self.check(field, y);
         let mut values = StageValues::Record {
@@ -418,6 +441,26 @@ impl<T: Real> Stepper<T> {
         };
         self.eval_stages_from(field, t, h, y, None, self.needed_stages(), &mut values);
         self.update(h, y);
+        self.exchange_stages(stages);
+    }
+
+    /// Exchanges the stage slopes, states and increments with `kept` (sized like the
+    /// stepper's on first use): after a step they go to `kept`; before its reverse pass they
+    /// come back. The stepper's own then hold whatever `kept` held.
+    pub(crate) fn exchange_stages(&mut self, kept: &mut StageBuffers<T>) {
+        if kept.k.len() != self.k.len()
+            || kept.x.len() != self.x.len()
+            || kept.omega.len() != self.omega.len()
+        {
+            *kept = StageBuffers {
+                k: vec![T::ZERO; self.k.len()],
+                x: vec![T::ZERO; self.x.len()],
+                omega: vec![T::ZERO; self.omega.len()],
+            };
+        }
+        core::mem::swap(&mut self.k, &mut kept.k);
+        core::mem::swap(&mut self.x, &mut kept.x);
+        core::mem::swap(&mut self.omega, &mut kept.omega);
     }
 
     /// After all stages of an FSAL tableau: `f(t_{n+1}, y_{n+1})`, the next step's `K₀`.
@@ -429,7 +472,7 @@ impl<T: Real> Stepper<T> {
         }
     }
 
-    /// `Xᵢ` and `Ωᵢ` of stage `i > 0`. The last stage of an FSAL tableau is taken at the
+    /// `Xᵢ` and `Ωᵢ` of stage `i > 0`, into the stage's own slots. The last stage of an FSAL tableau is taken at the
     /// new state `yₙ ⊕ h Σ bⱼKⱼ` exactly as the update forms it (on Euclidean entries that
     /// is bitwise `Xᵢ`; rotations are renormalised), so that it is bitwise `f(t_{n+1},
     /// y_{n+1})`, the next step's first stage.
@@ -438,8 +481,9 @@ impl<T: Real> Stepper<T> {
         if self.fsal && !self.euclidean && i + 1 == self.s {
             let combo = Combo::new((0..self.s).map(|j| (j, self.b[j])));
             let mut x = core::mem::take(&mut self.x);
-            x.copy_from_slice(y);
-            self.apply(&combo, h, &mut x);
+            let xi = &mut x[i * y.len()..(i + 1) * y.len()];
+            xi.copy_from_slice(y);
+            self.apply(&combo, h, xi);
             self.x = x;
         }
     }
@@ -471,7 +515,7 @@ impl<T: Real> Stepper<T> {
     fn check<F: VectorField<T> + ?Sized>(&self, field: &F, y: &[T]) {
         assert_eq!(
             y.len(),
-            self.x.len(),
+            self.layout.ambient_len(),
             "state length differs from the layout"
         );
         assert_eq!(
@@ -485,7 +529,8 @@ impl<T: Real> Stepper<T> {
         );
     }
 
-    /// Writes `Xᵢ` into `x` and `Ωᵢ` (SO(3) entries) into `omega`, from `yₙ` and `K_{j<i}`.
+    /// Writes `Xᵢ` and `Ωᵢ` (SO(3) and SE(3) entries) into stage `i`'s slots of `x` and
+    /// `omega`, from `yₙ` and `K_{j<i}`.
     fn stage_state(&mut self, i: usize, h: T, y: &[T]) {
         let combo = Combo::new((0..i).map(|j| (j, self.a[i][j])));
         let Self {
@@ -500,6 +545,8 @@ impl<T: Real> Stepper<T> {
             ..
         } = self;
         let (pat, n, k) = (*pat, *n, &*k);
+        let x = &mut x[i * y.len()..(i + 1) * y.len()];
+        let omega = &mut omega[i * n..(i + 1) * n];
         if *euclidean {
             // Ambient and tangent coordinates coincide: one flat loop per chunk.
             for_chunks1(*par, *count, x, pat.pa, |p0, np, xc| {
@@ -557,7 +604,7 @@ impl<T: Real> Stepper<T> {
             omega,
             ..
         } = self;
-        let (pat, omega) = (*pat, &*omega);
+        let (pat, omega) = (*pat, &omega[i * *n..(i + 1) * *n]);
         let ki = &mut k[i * *n..(i + 1) * *n];
         for_chunks1(*par, *count, ki, pat.pt, |p0, np, kc| {
             for p in 0..np {

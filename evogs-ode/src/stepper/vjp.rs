@@ -1,6 +1,6 @@
 //! The exact VJP of one step: [`Stepper::step_vjp`] (formulas in its docs).
 
-use super::{Combo, StageValues, Stepper, jl_tr_mul};
+use super::{Combo, KeptStep, StageValues, Stepper, jl_tr_mul};
 use crate::chunks::for_chunks2;
 use crate::{Block, VectorField};
 use alloc::vec;
@@ -112,17 +112,19 @@ impl<T: Real> Stepper<T> {
     }
 
     /// [`step_vjp`](Self::step_vjp) of a step taken by
-    /// [`step_recorded`](Self::step_recorded): with `Some((outputs, records))` (what it
-    /// kept) the stage values are copied from `outputs` and each stage's VJP reads its
-    /// record; with `None` the stages are evaluated again into `scratch` (one record per
-    /// stage) and their VJPs read those. Bitwise the same as `step_vjp`.
+    /// [`step_recorded`](Self::step_recorded): with `Some(kept)` (what it kept) the stage
+    /// values are copied from `outputs`, the slopes, states and
+    /// increments are taken from `stages` (and handed back after) and each stage's VJP reads
+    /// its record, so no stage is formed again; with `None` the stages are evaluated again
+    /// into `scratch` (one record per stage) and their VJPs read those. Bitwise the same as
+    /// `step_vjp`.
     pub(crate) fn step_vjp_recorded<F: VectorField<T> + ?Sized>(
         &mut self,
         field: &mut F,
         t: T,
         h: T,
         y_n: &[T],
-        kept: Option<(&[T], &[F::Record])>,
+        kept: Option<KeptStep<'_, T, F::Record>>,
         scratch: &mut [F::Record],
         lambda: &mut [T],
         d_params: &mut [T],
@@ -130,10 +132,16 @@ impl<T: Real> Stepper<T> {
         self.check_vjp(field, y_n, lambda, d_params);
         let upto = self.needed_stages();
         self.ensure_adjoint_buffers();
-        let records: &[F::Record] = match kept {
-            Some((outputs, records)) => {
-                self.recompute_stages(field, t, h, y_n, upto, &mut StageValues::Replay { outputs });
-                records
+        let (records, stages): (&[F::Record], _) = match kept {
+            Some(KeptStep {
+                outputs,
+                records,
+                stages,
+            }) => {
+                let m = upto * self.n;
+                self.adj.f[..m].copy_from_slice(&outputs[..m]);
+                self.exchange_stages(stages);
+                (records, Some(stages))
             }
             None => {
                 let mut values = StageValues::Record {
@@ -141,7 +149,7 @@ impl<T: Real> Stepper<T> {
                     records: &mut *scratch,
                 };
                 self.recompute_stages(field, t, h, y_n, upto, &mut values);
-                scratch
+                (&*scratch, None)
             }
         };
         self.adj.kbar.fill(T::ZERO);
@@ -149,6 +157,10 @@ impl<T: Real> Stepper<T> {
         self.update_vjp(&combo, h, lambda);
         self.add_kbar(&combo, h);
         self.vjp_stages_with(field, t, h, y_n, upto, lambda, d_params, Some(records));
+        if let Some(stages) = stages {
+            // The tape keeps the step's stages, so a second reverse pass reads them too.
+            self.exchange_stages(stages);
+        }
     }
 
     /// Starts the reverse pass of a step from `(t, y_n)`: recomputes stages `0..upto`
@@ -223,7 +235,7 @@ impl<T: Real> Stepper<T> {
         d_params: &mut [T],
         records: Option<&[F::Record]>,
     ) {
-        let n = self.n;
+        let (n, na) = (self.n, y_n.len());
         let field_vjp =
             |field: &mut F, i: usize, ti: T, x: &[T], w: &[T], xbar: &mut [T], dp: &mut [T]| {
                 match records {
@@ -243,26 +255,20 @@ impl<T: Real> Stepper<T> {
                 }
                 continue;
             }
-            self.stage_point(i, h, y_n);
+            // Xᵢ and Ωᵢ are in stage i's slots since the stages were recomputed.
             if self.euclidean {
+                let xi = &self.x[i * na..(i + 1) * na];
                 let kbar_i = &self.adj.kbar[i * n..(i + 1) * n];
-                field_vjp(field, i, ti, &self.x, kbar_i, &mut self.adj.xbar, d_params);
+                field_vjp(field, i, ti, xi, kbar_i, &mut self.adj.xbar, d_params);
                 for (l, xb) in lambda.iter_mut().zip(&self.adj.xbar) {
                     *l += *xb;
                 }
                 self.couple(i, h, true);
             } else {
                 self.stage_field_cotangent(i);
-                field_vjp(
-                    field,
-                    i,
-                    ti,
-                    &self.x,
-                    &self.adj.w,
-                    &mut self.adj.xbar,
-                    d_params,
-                );
-                self.stage_state_vjp(lambda);
+                let xi = &self.x[i * na..(i + 1) * na];
+                field_vjp(field, i, ti, xi, &self.adj.w, &mut self.adj.xbar, d_params);
+                self.stage_state_vjp(i, lambda);
                 self.couple(i, h, false);
             }
         }
@@ -290,14 +296,15 @@ impl<T: Real> Stepper<T> {
         upto: usize,
         values: &mut StageValues<'_, T, F::Record>,
     ) {
-        let n = self.n;
+        let (n, na) = (self.n, y.len());
         for i in 0..upto {
             let ti = t + self.c[i] * h;
             if i == 0 {
                 values.value(field, 0, ti, y, &mut self.adj.f[..n]);
             } else {
                 self.stage_point(i, h, y);
-                values.value(field, i, ti, &self.x, &mut self.adj.f[i * n..(i + 1) * n]);
+                let xi = &self.x[i * na..(i + 1) * na];
+                values.value(field, i, ti, xi, &mut self.adj.f[i * n..(i + 1) * n]);
             }
             self.k[i * n..(i + 1) * n].copy_from_slice(&self.adj.f[i * n..(i + 1) * n]);
             if i > 0 {
@@ -365,7 +372,7 @@ impl<T: Real> Stepper<T> {
     /// SO(3) and SE(3) entries `ω̄ᵢ` with `Ω̄ᵢ` (into `obar`) from the VJP of `Jl⁻¹(Ωᵢ)·ωᵢ`.
     fn stage_field_cotangent(&mut self, i: usize) {
         let (pat, n) = (self.pat, self.n);
-        let (omega, f, kbar) = (&self.omega, &self.adj.f, &self.adj.kbar);
+        let (omega, f, kbar) = (&self.omega[i * n..(i + 1) * n], &self.adj.f, &self.adj.kbar);
         for_chunks2(
             self.par,
             self.count,
@@ -411,9 +418,9 @@ impl<T: Real> Stepper<T> {
     /// Transposes `Xᵢ = yₙ ⊕ Ωᵢ`: `λ += X̄ᵢ`, `Ω̄ᵢ = X̄ᵢ` (Euclidean);
     /// `λ += Exp(Ωᵢ)ᵀX̄ᵢ`, `Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ` (SO(3));
     /// `λ += Ad(Exp(Ωᵢ))ᵀX̄ᵢ`, `Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ` (SE(3)).
-    fn stage_state_vjp(&mut self, lambda: &mut [T]) {
-        let pat = self.pat;
-        let (omega, xbar) = (&self.omega, &self.adj.xbar);
+    fn stage_state_vjp(&mut self, i: usize, lambda: &mut [T]) {
+        let (pat, n) = (self.pat, self.n);
+        let (omega, xbar) = (&self.omega[i * n..(i + 1) * n], &self.adj.xbar);
         for_chunks2(
             self.par,
             self.count,

@@ -130,6 +130,15 @@ fn the_recorded_adjoint_is_bitwise_the_plain_one_for_every_capacity() {
                 5 * stages + (5 * stages - kept),
                 "{method} {capacity}: the steps not kept are evaluated once more"
             );
+            // The kept steps' stages go back to the tape after their reverse pass.
+            let (mut g_y0, mut g_p) = (vec![0.0; n], vec![0.0; f.n_params()]);
+            discrete_adjoint_recorded(
+                &mut f, &mut st, &traj, &mut tape, &d_final, &mut g_y0, &mut g_p,
+            );
+            assert!(
+                g_y0 == d_y0 && g_p == d_p,
+                "{method} {capacity}: a second reverse pass of the same tape"
+            );
         }
     }
 }

@@ -1,11 +1,12 @@
 //! [`FieldRecord`]: what one batched evaluation of [`NeuralField`] keeps for its VJP, and
 //! the memory budget of the records a caller keeps.
 
-use super::NeuralField;
+use super::{NeuralField, gaussian_layout};
 use crate::field::chunk::{CHUNK, ChunkRecord, ChunkWork};
 use crate::field::gemm::Gemm;
 use crate::field::hexplane::HexPlane;
-use crate::field::mlp::{Mlp, N_OUT};
+use crate::field::mlp::Mlp;
+use evogs_ode::StageTape;
 
 /// The default budget of the records kept for the VJPs: 512 MiB (every stage of a
 /// `paper`-size RK4 frame of 16 evaluations at 20 000 Gaussians fits in it).
@@ -69,7 +70,7 @@ impl<T: Gemm> NeuralField<T> {
     /// [`StageTape`](evogs_ode::StageTape) keeps the records of the last ODE steps that fit,
     /// [`records_within_budget`](Self::records_within_budget), and the adjoint evaluates
     /// the earlier steps again). Each costs [`evaluation_bytes`](Self::evaluation_bytes):
-    /// at the `paper` size (F = W = 64) and N = 20 000, 27 MB in f32.
+    /// at the `paper` size (F = W = 64) and N = 20 000, 30 MB in f32.
     pub fn set_eval_budget(&mut self, bytes: usize) {
         self.eval_budget = bytes;
     }
@@ -83,11 +84,14 @@ impl<T: Gemm> NeuralField<T> {
 
     /// The bytes one kept evaluation of `n` Gaussians takes: its record,
     /// `N·(F + 4W + 9)` scalars for F features and MLP width W (rounded up to whole chunks),
-    /// and the 9 outputs per Gaussian the stage tape keeps beside it.
+    /// and what the stage tape keeps beside it
+    /// ([`StageTape::scalars_per_stage`](evogs_ode::StageTape::scalars_per_stage) of the
+    /// Gaussian layout: the stage's value, slope and increment, 9 each, and its state, 10).
     #[must_use]
     pub fn evaluation_bytes(&self, n: usize) -> usize {
-        let per_row = ChunkRecord::<T>::scalars_per_row(&self.hex, &self.mlp) + N_OUT;
-        n.div_ceil(CHUNK) * CHUNK * per_row * core::mem::size_of::<T>()
+        let record = ChunkRecord::<T>::scalars_per_row(&self.hex, &self.mlp);
+        let tape = StageTape::<T, FieldRecord<T>>::scalars_per_stage(&gaussian_layout(n));
+        (n.div_ceil(CHUNK) * CHUNK * record + tape) * core::mem::size_of::<T>()
     }
 
     /// Grows the per-chunk scratch to `n_chunks` chunks.
