@@ -9,11 +9,15 @@ use super::{StateMut, StateRef};
 use crate::field::{Batch, BatchVjp, FieldRecord, Gemm, NeuralField};
 use evogs_math::activation::normalize_quat_vjp;
 use evogs_math::update::{exp_update_left, exp_update_left_vjp};
-use evogs_math::{Quat, Vec3};
+use evogs_math::{Par, Quat, Vec3};
 use evogs_splat::Splats;
 
 /// Network outputs per Gaussian: `[Δp, Δω, Δs]`.
 pub const OUTPUTS: usize = 9;
+
+/// Gaussians per task of the per-Gaussian loops (a fixed number: each Gaussian's result
+/// depends on it alone, so any thread count gives the same bits).
+const RUN: usize = 2048;
 
 /// The canonical positions, flat (`3N`).
 #[must_use]
@@ -57,8 +61,24 @@ pub fn displace<T: Gemm>(
         n,
     };
     field.eval_batch(&at, &mut net, Some(record));
-    for i in 0..n {
-        (means[i], quats[i], log_scales[i]) = displaced(canonical, i, &net[i * OUTPUTS..]);
+    let run = |first: usize, (m, s, q): StateMut<'_, T>| {
+        for (j, ((m, q), s)) in m.iter_mut().zip(q).zip(s).enumerate() {
+            let i = first + j;
+            (*m, *q, *s) = displaced(canonical, i, &net[i * OUTPUTS..]);
+        }
+    };
+    match field.par() {
+        Par::Seq => run(0, (means, log_scales, quats)),
+        #[cfg(feature = "rayon")]
+        Par::Rayon => {
+            use rayon::prelude::*;
+            means
+                .par_chunks_mut(RUN)
+                .zip(log_scales.par_chunks_mut(RUN))
+                .zip(quats.par_chunks_mut(RUN))
+                .enumerate()
+                .for_each(|(k, ((m, s), q))| run(k * RUN, (m, s, q)));
+        }
     }
     net
 }
@@ -86,22 +106,42 @@ pub fn displace_vjp<T: Gemm>(
     let (g_means, g_log_scales, g_quats) = grad;
     let n = canonical.len();
     let mut d_net = vec![T::ZERO; n * OUTPUTS];
-    for i in 0..n {
-        let q0 = canonical.quats[i];
-        let o = &net[i * OUTPUTS..];
-        let g = exp_update_left_vjp(
-            q0.normalize(),
-            Vec3::from_slice(&o[3..]),
-            T::ONE,
-            d_quats[i],
-        );
-        let dn = &mut d_net[i * OUTPUTS..(i + 1) * OUTPUTS];
-        d_means[i].write_to(dn);
-        g.omega.write_to(&mut dn[3..]);
-        d_log_scales[i].write_to(&mut dn[6..]);
-        g_means[i] += d_means[i];
-        g_log_scales[i] += d_log_scales[i];
-        g_quats[i] = g_quats[i] + normalize_quat_vjp(q0, g.q);
+    let run = |first: usize, d_net: &mut [T], (g_means, g_log_scales, g_quats): StateMut<'_, T>| {
+        for (j, dn) in d_net.chunks_exact_mut(OUTPUTS).enumerate() {
+            let i = first + j;
+            let q0 = canonical.quats[i];
+            let o = &net[i * OUTPUTS..];
+            let g = exp_update_left_vjp(
+                q0.normalize(),
+                Vec3::from_slice(&o[3..]),
+                T::ONE,
+                d_quats[i],
+            );
+            d_means[i].write_to(dn);
+            g.omega.write_to(&mut dn[3..]);
+            d_log_scales[i].write_to(&mut dn[6..]);
+            g_means[j] += d_means[i];
+            g_log_scales[j] += d_log_scales[i];
+            g_quats[j] = g_quats[j] + normalize_quat_vjp(q0, g.q);
+        }
+    };
+    match field.par() {
+        Par::Seq => run(
+            0,
+            &mut d_net,
+            (&mut *g_means, &mut *g_log_scales, &mut *g_quats),
+        ),
+        #[cfg(feature = "rayon")]
+        Par::Rayon => {
+            use rayon::prelude::*;
+            d_net
+                .par_chunks_mut(RUN * OUTPUTS)
+                .zip(g_means.par_chunks_mut(RUN))
+                .zip(g_log_scales.par_chunks_mut(RUN))
+                .zip(g_quats.par_chunks_mut(RUN))
+                .enumerate()
+                .for_each(|(k, (((dn, m), s), q))| run(k * RUN, dn, (m, s, q)));
+        }
     }
     let pos = flat_positions(canonical);
     let mut d_pos = vec![T::ZERO; n * 3];

@@ -11,7 +11,7 @@
 use super::displace::{displace, displace_vjp};
 use super::hop::{HopStart, HopTape};
 use super::packing::{TANGENT, pack_state, unpack};
-use super::{Model, ModelGrad, Motion, Waypoints};
+use super::{Model, ModelGrad, Motion, Waypoints, add_runs};
 use crate::field::neural::STATE_STRIDE;
 use crate::field::{FieldRecord, Gemm};
 use evogs_math::activation::normalize_quat_vjp;
@@ -274,14 +274,9 @@ impl<T: Gemm> Model<T> {
     ) {
         let n = self.len();
         let c = &mut grad.canonical;
-        for i in 0..n {
-            c.opacity_logits[i] += d.opacity_logits[i];
-        }
-        for (g, v) in c.sh.iter_mut().zip(&d.sh) {
-            for ch in 0..3 {
-                g[ch] += v[ch];
-            }
-        }
+        let par = self.field.par();
+        add_runs(&mut c.opacity_logits[..n], &d.opacity_logits[..n], par);
+        add_runs(c.sh.as_flattened_mut(), d.sh.as_flattened(), par);
         match tape {
             FrameTape::Static => {
                 for i in 0..n {

@@ -303,6 +303,26 @@ fn all_finite<T: Gemm>(xs: &[T], par: Par) -> bool {
     }
 }
 
+/// `dst += src`, element by element, in runs on the pool for `Par::Rayon`.
+pub(super) fn add_runs<T: Gemm>(dst: &mut [T], src: &[T], par: Par) {
+    debug_assert_eq!(dst.len(), src.len(), "add_runs lengths");
+    let run = |(d, s): (&mut [T], &[T])| {
+        for (d, &s) in d.iter_mut().zip(s) {
+            *d += s;
+        }
+    };
+    match par {
+        Par::Seq => run((dst, src)),
+        #[cfg(feature = "rayon")]
+        Par::Rayon => {
+            use rayon::prelude::*;
+            dst.par_chunks_mut(RUN)
+                .zip(src.par_chunks(RUN))
+                .for_each(run);
+        }
+    }
+}
+
 /// Sets every value to zero, in runs on the pool for `Par::Rayon`.
 fn zero_runs<T: Gemm>(xs: &mut [T], par: Par) {
     match par {
