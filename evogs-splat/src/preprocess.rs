@@ -320,12 +320,21 @@ pub fn preprocess_into<T: Real>(
             .map(|i| u32::try_from(i).unwrap_or(u32::MAX)),
     );
     let depths = &out.depths;
-    out.order.sort_by(|&a, &b| {
-        depths[a as usize]
-            .partial_cmp(&depths[b as usize])
+    // A valid Gaussian's depth lies in (near, far), so it is finite and (depth, index) is a
+    // strict total order: every correct sort, sequential or parallel, gives this one order.
+    let by_depth = |a: &u32, b: &u32| {
+        depths[*a as usize]
+            .partial_cmp(&depths[*b as usize])
             .unwrap_or(Ordering::Equal)
-            .then(a.cmp(&b))
-    });
+            .then(a.cmp(b))
+    };
+    #[cfg(feature = "rayon")]
+    if matches!(opts.par, Par::Rayon) {
+        use rayon::slice::ParallelSliceMut;
+        out.order.par_sort_unstable_by(by_depth);
+        return;
+    }
+    out.order.sort_unstable_by(by_depth);
 }
 
 /// One chunk of the parameter gradient.
