@@ -1,159 +1,217 @@
-//! The matrix products of the paper-size MLP (F = W = 64, a chunk of 256 rows) through
-//! [`Gemm::gemm`], each in the layout `field::mlp` uses and, for the products whose large
-//! operand is a row-major activation, with that operand column-major instead.
-//!
-//! matrixmultiply packs both operands into panels before its kernel runs. An `A` whose
-//! columns are contiguous and a `B` whose rows are contiguous pack by contiguous copies; a
-//! row-major activation as `A` packs by strided gathers, which on the development machine
-//! takes as long as the multiply itself (`docs/performance.md`). The weight gradients
-//! (`dW1`, `dW0`) read the activations transposed, which packs contiguously; the forward
-//! and input-gradient products (`trunk`, `heads`, `d_trunk`, `d_features`) do not.
+//! The matrix products of one chunk of the paper-size MLP (F = W = 64, [`CHUNK`] rows)
+//! through [`Gemm::gemm`], each with the shapes, strides and β that `field::mlp` passes:
+//! the two forward products and the heads' three thin ones (only the first is timed: the
+//! other two are the same shape), then the backward's weight and input gradients. The
+//! rate of each product against the machine's FMA peak (`tools/fma-peak`) is what
+//! `docs/performance.md` reports for the field's GEMMs.
 //!
 //! ```sh
 //! cargo bench -p evogs --bench gemm
 //! ```
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use evogs::field::CHUNK;
 use evogs::field::gemm::{Gemm, MatRef, row_major, transposed};
 use std::hint::black_box;
 
-/// Rows of a chunk, as in `field::chunk::CHUNK`.
-const R: usize = 256;
+/// Rows of a chunk.
+const R: usize = CHUNK;
 /// Width and feature dimension of the paper-size MLP.
 const W: usize = 64;
+/// The MLP's outputs per row (three heads of three).
+const OUT: usize = 9;
 
-/// One product: its name, the shapes (m, k, n), and whether `A` is stored row-major
-/// (`false`: column-major) and `B` row-major.
-struct Case {
-    name: &'static str,
-    m: usize,
-    k: usize,
-    n: usize,
-    a_rows: bool,
-    b_rows: bool,
+/// An operand: `rows × cols` with the given row and column strides over a buffer.
+#[derive(Clone, Copy)]
+struct Layout {
+    rows: usize,
+    cols: usize,
+    rs: usize,
+    cs: usize,
 }
 
-fn operand(data: &[f32], rows: usize, cols: usize, row_major_storage: bool) -> MatRef<'_, f32> {
-    if row_major_storage {
-        row_major(data, rows, cols)
-    } else {
-        transposed(data, cols, rows)
+impl Layout {
+    const fn rows(rows: usize, cols: usize) -> Self {
+        Self {
+            rows,
+            cols,
+            rs: cols,
+            cs: 1,
+        }
+    }
+
+    /// The buffer length the layout reads.
+    const fn span(self) -> usize {
+        (self.rows - 1) * self.rs + (self.cols - 1) * self.cs + 1
+    }
+
+    fn of(self, data: &[f32]) -> MatRef<'_, f32> {
+        (data, self.rows, self.cols, self.rs, self.cs)
     }
 }
 
+/// One product `C ← A·B + β·C` as `field::mlp` calls it.
+struct Case {
+    name: &'static str,
+    a: Layout,
+    b: Layout,
+    c: Layout,
+    beta: f32,
+}
+
+/// `transposed(data, rows, cols)`: the transpose of a row-major `rows × cols` matrix.
+const fn transposed_of(rows: usize, cols: usize) -> Layout {
+    Layout {
+        rows: cols,
+        cols: rows,
+        rs: 1,
+        cs: cols,
+    }
+}
+
+fn cases() -> [Case; 9] {
+    let row = Layout::rows;
+    [
+        Case {
+            name: "forward trunk, R x F . F x W",
+            a: row(R, W),
+            b: transposed_of(W, W),
+            c: row(R, W),
+            beta: 0.0,
+        },
+        Case {
+            name: "forward heads, R x W . W x 3W",
+            a: row(R, W),
+            b: transposed_of(3 * W, W),
+            c: row(R, 3 * W),
+            beta: 0.0,
+        },
+        Case {
+            name: "forward head out (thin), R x W . W x 3",
+            a: Layout {
+                rows: R,
+                cols: W,
+                rs: 3 * W,
+                cs: 1,
+            },
+            b: transposed_of(3, W),
+            c: Layout {
+                rows: R,
+                cols: 3,
+                rs: OUT,
+                cs: 1,
+            },
+            beta: 1.0,
+        },
+        Case {
+            name: "backward dW2 (thin), 3 x R . R x W",
+            a: Layout {
+                rows: 3,
+                cols: R,
+                rs: 1,
+                cs: OUT,
+            },
+            b: Layout {
+                rows: R,
+                cols: W,
+                rs: 3 * W,
+                cs: 1,
+            },
+            c: row(3, W),
+            beta: 1.0,
+        },
+        Case {
+            name: "backward d_heads (thin), R x 3 . 3 x W",
+            a: Layout {
+                rows: R,
+                cols: 3,
+                rs: OUT,
+                cs: 1,
+            },
+            b: row(3, W),
+            c: Layout {
+                rows: R,
+                cols: W,
+                rs: 3 * W,
+                cs: 1,
+            },
+            beta: 0.0,
+        },
+        Case {
+            name: "backward dW1, 3W x R . R x W",
+            a: transposed_of(R, 3 * W),
+            b: row(R, W),
+            c: row(3 * W, W),
+            beta: 1.0,
+        },
+        Case {
+            name: "backward d_trunk, R x 3W . 3W x W",
+            a: row(R, 3 * W),
+            b: row(3 * W, W),
+            c: row(R, W),
+            beta: 0.0,
+        },
+        Case {
+            name: "backward dW0, W x R . R x F",
+            a: transposed_of(R, W),
+            b: row(R, W),
+            c: row(W, W),
+            beta: 1.0,
+        },
+        Case {
+            name: "backward d_features, R x W . W x F",
+            a: row(R, W),
+            b: row(W, W),
+            c: row(R, W),
+            beta: 0.0,
+        },
+    ]
+}
+
 fn bench(c: &mut Criterion) {
-    let cases = [
-        // As `Mlp::forward` and `Mlp::backward` call them (weights stored `[out][in]`).
-        Case {
-            name: "trunk/as used",
-            m: R,
-            k: W,
-            n: W,
-            a_rows: true,
-            b_rows: false,
-        },
-        Case {
-            name: "heads/as used",
-            m: R,
-            k: W,
-            n: 3 * W,
-            a_rows: true,
-            b_rows: false,
-        },
-        Case {
-            name: "dW1/as used",
-            m: 3 * W,
-            k: R,
-            n: W,
-            a_rows: false,
-            b_rows: true,
-        },
-        Case {
-            name: "d_trunk/as used",
-            m: R,
-            k: 3 * W,
-            n: W,
-            a_rows: true,
-            b_rows: true,
-        },
-        Case {
-            name: "dW0/as used",
-            m: W,
-            k: R,
-            n: W,
-            a_rows: false,
-            b_rows: true,
-        },
-        Case {
-            name: "d_features/as used",
-            m: R,
-            k: W,
-            n: W,
-            a_rows: true,
-            b_rows: true,
-        },
-        // The same shapes with the activation column-major.
-        Case {
-            name: "trunk/A by columns",
-            m: R,
-            k: W,
-            n: W,
-            a_rows: false,
-            b_rows: false,
-        },
-        Case {
-            name: "heads/A by columns",
-            m: R,
-            k: W,
-            n: 3 * W,
-            a_rows: false,
-            b_rows: false,
-        },
-        Case {
-            name: "d_trunk/A by columns",
-            m: R,
-            k: 3 * W,
-            n: W,
-            a_rows: false,
-            b_rows: true,
-        },
-        Case {
-            name: "d_features/A by columns",
-            m: R,
-            k: W,
-            n: W,
-            a_rows: false,
-            b_rows: true,
-        },
-    ];
+    // The layouts above are the ones `field::mlp` builds with these helpers.
+    let shape = |m: MatRef<'_, f32>| (m.1, m.2, m.3, m.4);
+    let buf = [0.0_f32; 3 * W];
+    let t = transposed_of(3, W);
+    assert_eq!(
+        shape(transposed(&buf, 3, W)),
+        (t.rows, t.cols, t.rs, t.cs),
+        "transposed"
+    );
+    let r = Layout::rows(3, W);
+    assert_eq!(
+        shape(row_major(&buf, 3, W)),
+        (r.rows, r.cols, r.rs, r.cs),
+        "row-major"
+    );
     let mut g = c.benchmark_group("mlp_gemm");
-    for case in &cases {
+    for case in &cases() {
         let Case {
             name,
-            m,
-            k,
-            n,
-            a_rows,
-            b_rows,
+            a,
+            b,
+            c: out,
+            beta,
         } = *case;
+        assert!(
+            a.cols == b.rows && a.rows == out.rows && b.cols == out.cols,
+            "{name}"
+        );
         #[allow(clippy::cast_precision_loss, reason = "bench inputs")]
-        let a: Vec<f32> = (0..m * k)
-            .map(|i| ((i * 7919) % 1000) as f32 * 1e-3)
-            .collect();
-        #[allow(clippy::cast_precision_loss, reason = "bench inputs")]
-        let b: Vec<f32> = (0..k * n)
-            .map(|i| ((i * 104_729) % 1000) as f32 * 1e-3)
-            .collect();
-        let mut out = vec![0.0_f32; m * n];
-        g.throughput(Throughput::Elements((2 * m * k * n) as u64));
+        let fill = |n: usize, p: usize| -> Vec<f32> {
+            (0..n).map(|i| ((i * p) % 1000) as f32 * 1e-3).collect()
+        };
+        let (da, db) = (fill(a.span(), 7919), fill(b.span(), 104_729));
+        let mut dc = vec![0.0_f32; out.span()];
+        g.throughput(Throughput::Elements((2 * a.rows * a.cols * b.cols) as u64));
         g.bench_function(name, |bencher| {
             bencher.iter(|| {
                 f32::gemm(
                     1.0,
-                    operand(black_box(&a), m, k, a_rows),
-                    operand(black_box(&b), k, n, b_rows),
-                    1.0,
-                    (&mut out, m, n, n, 1),
+                    a.of(black_box(&da)),
+                    b.of(black_box(&db)),
+                    beta,
+                    (&mut dc, out.rows, out.cols, out.rs, out.cs),
                 );
             });
         });
