@@ -170,29 +170,57 @@ impl<T: Real> TiledRasterizer<T> {
         });
         drop(items);
 
-        // Per-Gaussian reduction in tile order.
+        // Per-Gaussian reduction in tile order, in runs of Gaussians on the pool (each
+        // Gaussian's sum is its own: the same bits on any thread count).
         stats.reset(pre.means2d.len());
-        for (g, &k) in self.rank.iter().enumerate() {
-            if k == u32::MAX {
-                continue;
-            }
-            let mut acc = [T::ZERO; ENTRY_GRAD_LEN];
-            for &e in self.bins.splat_entries(k as usize) {
-                for (a, v) in acc.iter_mut().zip(&self.entry_grads[e as usize]) {
-                    *a += *v;
+        let mut runs: Vec<ReduceRun<'_, T>> = grad
+            .means2d
+            .chunks_mut(REDUCE_RUN)
+            .zip(grad.conics.chunks_mut(REDUCE_RUN))
+            .zip(grad.colors.chunks_mut(REDUCE_RUN))
+            .zip(grad.opacities.chunks_mut(REDUCE_RUN))
+            .zip(grad.depths.chunks_mut(REDUCE_RUN))
+            .zip(stats.mean2d_grad_norm.chunks_mut(REDUCE_RUN))
+            .zip(stats.radius.chunks_mut(REDUCE_RUN))
+            .map(
+                |((((((means2d, conics), colors), opacities), depths), norms), radius)| ReduceRun {
+                    means2d,
+                    conics,
+                    colors,
+                    opacities,
+                    depths,
+                    norms,
+                    radius,
+                },
+            )
+            .collect();
+        let (rank, bins, entry_grads) = (&self.rank, &self.bins, &self.entry_grads);
+        for_each_item(par, &mut runs, |r, run| {
+            let first = r * REDUCE_RUN;
+            for (j, &k) in rank[first..first + run.means2d.len()].iter().enumerate() {
+                if k == u32::MAX {
+                    continue;
                 }
+                let mut acc = [T::ZERO; ENTRY_GRAD_LEN];
+                for &e in bins.splat_entries(k as usize) {
+                    for (a, v) in acc.iter_mut().zip(&entry_grads[e as usize]) {
+                        *a += *v;
+                    }
+                }
+                let dm = Vec2::new(acc[0], acc[1]);
+                run.means2d[j] += dm;
+                for q in 0..3 {
+                    run.conics[j][q] += acc[2 + q];
+                    run.colors[j][q] += acc[5 + q];
+                }
+                run.opacities[j] += acc[8];
+                run.depths[j] += acc[9];
+                run.norms[j] = dm.norm();
+                let radii = pre.radii[first + j];
+                run.radius[j] = radii[0].max(radii[1]);
             }
-            let dm = Vec2::new(acc[0], acc[1]);
-            grad.means2d[g] += dm;
-            for q in 0..3 {
-                grad.conics[g][q] += acc[2 + q];
-                grad.colors[g][q] += acc[5 + q];
-            }
-            grad.opacities[g] += acc[8];
-            grad.depths[g] += acc[9];
-            stats.mean2d_grad_norm[g] = dm.norm();
-            stats.radius[g] = pre.radii[g][0].max(pre.radii[g][1]);
-        }
+        });
+        drop(runs);
 
         // d bg = Σ T_final dC, summed in pixel order like the reference.
         let mut d_bg = [T::ZERO; 3];
@@ -203,6 +231,21 @@ impl<T: Real> TiledRasterizer<T> {
         }
         d_bg
     }
+}
+
+/// Gaussians per work item of the per-Gaussian reduction of the entry gradients.
+const REDUCE_RUN: usize = 1024;
+
+/// One run of Gaussians of the per-Gaussian reduction: its slices of the raster-input
+/// gradient and of the densification statistics.
+struct ReduceRun<'a, T> {
+    means2d: &'a mut [Vec2<T>],
+    conics: &'a mut [[T; 3]],
+    colors: &'a mut [[T; 3]],
+    opacities: &'a mut [T],
+    depths: &'a mut [T],
+    norms: &'a mut [T],
+    radius: &'a mut [u32],
 }
 
 /// Everything a tile's backward reads.
