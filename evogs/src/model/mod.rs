@@ -247,10 +247,15 @@ impl<T: Gemm> Model<T> {
 }
 
 impl<T: Gemm> ModelGrad<T> {
-    /// Sets every entry to zero; `par` zeroes the field's parameters (most of the
-    /// entries) in runs on the pool.
+    /// Sets every entry to zero; `par` zeroes the colours, the opacities and the field's
+    /// parameters (most of the entries) in runs on the pool.
     pub fn fill_zero(&mut self, par: Par) {
-        self.canonical.fill_zero();
+        let c = &mut self.canonical;
+        c.means.fill(Vec3::zero());
+        c.log_scales.fill(Vec3::zero());
+        c.quats.fill(Quat::zero());
+        zero_runs(&mut c.opacity_logits, par);
+        zero_runs(c.sh.as_flattened_mut(), par);
         for a in &mut self.anchors {
             a.fill_zero();
         }
@@ -269,15 +274,15 @@ impl<T: Gemm> ModelGrad<T> {
         }
     }
 
-    /// `true` if every entry is finite; `par` checks the colours and the field's
-    /// parameters (most of the entries) in runs on the pool.
+    /// `true` if every entry is finite; `par` checks the opacities, the colours and the
+    /// field's parameters (most of the entries) in runs on the pool.
     #[must_use]
     pub fn is_finite(&self, par: Par) -> bool {
         let c = &self.canonical;
         c.means.iter().all(|v| v.is_finite())
             && c.log_scales.iter().all(|v| v.is_finite())
             && c.quats.iter().all(|q| q.is_finite())
-            && c.opacity_logits.iter().all(|v| v.is_finite())
+            && all_finite(&c.opacity_logits, par)
             && all_finite(c.sh.as_flattened(), par)
             && self.anchors.iter().all(AnchorState::is_finite)
             && all_finite(&self.field, par)
