@@ -1,13 +1,15 @@
-//! [`StageTape`]: the field evaluations a recorded integration keeps for its discrete
-//! adjoint.
+//! [`StageTape`]: the stages a recorded integration keeps for its discrete adjoint.
 //!
 //! The discrete adjoint takes, step by step in reverse, the VJP of every stage the forward
 //! pass evaluated, at the same points. A field whose VJP needs its forward pass (the neural
-//! field's activations) would otherwise run it again. [`integrate_recorded`] writes each
-//! stage's field value and the field's [`Record`](crate::VectorField::Record) into a tape
-//! that the caller owns, and [`discrete_adjoint_recorded`] hands them back to the stepper
-//! in reverse order, stage by stage, by their position in the grid: nothing is looked up by
-//! value. The tape keeps the records of the **last** whole steps that fit its capacity (the
+//! field's activations) would otherwise run it again, and the stepper would form each
+//! stage's state again (exponentials and `dexp⁻¹` on the Lie-group blocks).
+//! [`integrate_recorded`] writes each stage's field value and the field's
+//! [`Record`](crate::VectorField::Record) into a tape that the caller owns, with the step's
+//! stage slopes, states and increments (the stepper's own buffers, exchanged with the
+//! tape's, not copied), and [`discrete_adjoint_recorded`] hands them back to the stepper in
+//! reverse order, step by step, by their position in the grid: nothing is looked up by
+//! value, and no stage of a kept step is formed again. The tape keeps the records of the **last** whole steps that fit its capacity (the
 //! caller's memory budget, in stage records): the reverse pass meets those first, and
 //! evaluates the earlier steps' stages again (into scratch records reused from step to step).
 //! Either way the gradient is bitwise the same as [`discrete_adjoint`](crate::discrete_adjoint)'s.
