@@ -376,11 +376,11 @@ impl<T: Gemm> NeuralField<T> {
         let n_lk = self.hex.n_lookups();
         let ch = self.hex.channels();
         let n_mlp = self.mlp.n_params();
-        self.partials.clear();
+        // Sized only: each chunk zeroes its own MLP partial and writes every entry of its
+        // records, sample gradients and position gradients.
         self.partials.resize(n_chunks * n_mlp, T::ZERO);
         self.cells.resize(n * n_lk, CellRecord::default());
         self.d_samples.resize(n * n_lk * ch, T::ZERO);
-        self.d_pos.clear();
         self.d_pos.resize(n * 3, T::ZERO);
         self.ensure_work(n_chunks);
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
@@ -389,6 +389,7 @@ impl<T: Gemm> NeuralField<T> {
             let rows = c.cells.len() / n_lk;
             let pos = &positions[c.index * CHUNK * stride..];
             let d_o = &d_out[c.index * CHUNK * N_OUT..c.index * CHUNK * N_OUT + rows * N_OUT];
+            c.partial.fill(T::ZERO);
             mlp.backward(
                 &params[hex.n_params()..],
                 &c.record.features,
@@ -441,28 +442,23 @@ impl<T: Gemm> NeuralField<T> {
                     .for_each(run);
             }
         }
-        for i in 0..n {
-            for a in 0..3 {
-                d_positions[i * d_stride + a] += self.d_pos[i * 3 + a];
-            }
-        }
-        let off = self.hex.n_params();
-        for partial in self.partials.chunks(n_mlp) {
-            for (d, &p) in d_params[off..].iter_mut().zip(partial) {
-                *d += p;
-            }
-        }
-        self.scatter_planes(n, &mut d_params[..off]);
+        self.gather(n, d_params, d_positions, d_stride);
     }
 
-    /// Adds the stored per-lookup sample gradients into the plane gradients, plane by plane
-    /// (in parallel over planes), each in Gaussian order; a plane's records are read as one
-    /// contiguous run per chunk.
-    fn scatter_planes(&self, n: usize, d_grid: &mut [T]) {
+    /// Adds what the chunks left into the caller's gradients, as independent tasks of one
+    /// parallel pass: each plane's stored per-lookup sample gradients into the plane (in
+    /// Gaussian order; a plane's records are read as one contiguous run per chunk), the
+    /// chunks' MLP partials into the MLP gradient (in chunk order), and the position
+    /// gradients. Every entry receives the same terms in the same order on any thread count.
+    fn gather(&self, n: usize, d_params: &mut [T], d_positions: &mut [T], d_stride: usize) {
         let hex = &self.hex;
         let n_lk = hex.n_lookups();
         let ch = hex.channels();
-        let mut slices: Vec<((usize, usize), &mut [T])> = Vec::with_capacity(n_lk);
+        let n_mlp = self.mlp.n_params();
+        let (d_grid, d_mlp) = d_params.split_at_mut(hex.n_params());
+        let mut tasks: Vec<Gather<'_, T>> = Vec::with_capacity(n_lk + 2);
+        tasks.push(Gather::Mlp(d_mlp));
+        tasks.push(Gather::Positions(d_positions));
         let mut rest = d_grid;
         let mut consumed = 0;
         for l in 0..hex.levels() {
@@ -470,34 +466,59 @@ impl<T: Gemm> NeuralField<T> {
                 let r = hex.plane_range(l, p);
                 debug_assert_eq!(r.start, consumed, "planes are contiguous");
                 let (head, tail) = rest.split_at_mut(r.len());
-                slices.push(((l, p), head));
+                tasks.push(Gather::Plane(l, p, head));
                 rest = tail;
                 consumed = r.end;
             }
         }
         let (cells, d_samples) = (&self.cells, &self.d_samples);
-        let work = |((l, p), plane): ((usize, usize), &mut [T])| {
-            let k = l * 6 + p;
-            for c0 in (0..n).step_by(CHUNK) {
-                // The chunk's records of plane k are contiguous (see decode_chunk_vjp).
-                let rows = CHUNK.min(n - c0);
-                let first = c0 * n_lk + k * rows;
-                let plane_cells = &cells[first..first + rows];
-                let gs = &d_samples[first * ch..(first + rows) * ch];
-                for (cell, g) in plane_cells.iter().zip(gs.chunks_exact(ch)) {
-                    HexPlane::scatter(plane, &hex.plane_lookup(l, p, cell), g);
+        let (partials, d_pos) = (&self.partials, &self.d_pos);
+        let work = |task: Gather<'_, T>| match task {
+            Gather::Plane(l, p, plane) => {
+                let k = l * 6 + p;
+                for c0 in (0..n).step_by(CHUNK) {
+                    // The chunk's records of plane k are contiguous (see decode_chunk_vjp).
+                    let rows = CHUNK.min(n - c0);
+                    let first = c0 * n_lk + k * rows;
+                    let plane_cells = &cells[first..first + rows];
+                    let gs = &d_samples[first * ch..(first + rows) * ch];
+                    for (cell, g) in plane_cells.iter().zip(gs.chunks_exact(ch)) {
+                        HexPlane::scatter(plane, &hex.plane_lookup(l, p, cell), g);
+                    }
+                }
+            }
+            Gather::Mlp(d_mlp) => {
+                for partial in partials.chunks(n_mlp).take(n.div_ceil(CHUNK)) {
+                    for (d, &p) in d_mlp.iter_mut().zip(partial) {
+                        *d += p;
+                    }
+                }
+            }
+            Gather::Positions(d_positions) => {
+                for i in 0..n {
+                    for a in 0..3 {
+                        d_positions[i * d_stride + a] += d_pos[i * 3 + a];
+                    }
                 }
             }
         };
         match self.par {
-            Par::Seq => slices.into_iter().for_each(work),
+            Par::Seq => tasks.into_iter().for_each(work),
             #[cfg(feature = "rayon")]
             Par::Rayon => {
                 use rayon::prelude::*;
-                slices.into_par_iter().for_each(work);
+                tasks.into_par_iter().for_each(work);
             }
         }
     }
+}
+
+/// One task of [`NeuralField::gather`]: a plane of the gradient (level, plane), the MLP's
+/// part of the gradient, or the position gradients.
+enum Gather<'a, T> {
+    Plane(usize, usize, &'a mut [T]),
+    Mlp(&'a mut [T]),
+    Positions(&'a mut [T]),
 }
 
 /// The zipped per-chunk slices of [`NeuralField::vjp_batch`], in the order they are zipped.
