@@ -50,6 +50,50 @@ pub(crate) fn for_chunks2<T, F>(
     }
 }
 
+/// Four-buffer version of [`for_chunks2`]: `f(first_particle, particles, chunks)` with the
+/// chunks of the four buffers, `per[i]` entries per particle in buffer `i`.
+pub(crate) fn for_chunks4<T, F>(par: Par, count: usize, bufs: [&mut [T]; 4], per: [usize; 4], f: F)
+where
+    T: Send,
+    F: Fn(usize, usize, [&mut [T]; 4]) + Sync,
+{
+    debug_assert!(
+        bufs.iter().zip(per).all(|(b, w)| b.len() == count * w),
+        "chunk buffers"
+    );
+    let [a, b, c, d] = bufs;
+    #[cfg(feature = "rayon")]
+    if matches!(par, Par::Rayon) && per.iter().all(|&w| w > 0) && count > CHUNK {
+        use rayon::prelude::*;
+        a.par_chunks_mut(CHUNK * per[0])
+            .zip(b.par_chunks_mut(CHUNK * per[1]))
+            .zip(c.par_chunks_mut(CHUNK * per[2]))
+            .zip(d.par_chunks_mut(CHUNK * per[3]))
+            .enumerate()
+            .for_each(|(k, (((ca, cb), cc), cd))| {
+                f(k * CHUNK, ca.len() / per[0], [ca, cb, cc, cd]);
+            });
+        return;
+    }
+    let _ = par;
+    let mut p0 = 0;
+    while p0 < count {
+        let np = CHUNK.min(count - p0);
+        let range = |w: usize| p0 * w..(p0 + np) * w;
+        f(
+            p0,
+            np,
+            [
+                &mut a[range(per[0])],
+                &mut b[range(per[1])],
+                &mut c[range(per[2])],
+                &mut d[range(per[3])],
+            ],
+        );
+        p0 += np;
+    }
+}
+
 /// One-buffer version of [`for_chunks2`].
 pub(crate) fn for_chunks1<T, F>(par: Par, count: usize, a: &mut [T], a_per: usize, f: F)
 where
@@ -145,6 +189,25 @@ mod tests {
                     });
                     check_cover(seen.into_inner().expect("lock"), count, &what);
                     assert!(owner(&a, a_per.max(1)), "{what}: owners, one buffer");
+
+                    let per = [a_per, b_per, 1, a_per + b_per];
+                    let mut bufs: [Vec<usize>; 4] =
+                        core::array::from_fn(|i| std::vec![0_usize; count * per[i]]);
+                    let seen = Mutex::new(Vec::new());
+                    let [b0, b1, b2, b3] = &mut bufs;
+                    for_chunks4(par, count, [b0, b1, b2, b3], per, |p0, np, chunks| {
+                        for (c, w) in chunks.into_iter().zip(per) {
+                            assert!(c.len() == np * w, "{what}");
+                            for (i, v) in c.iter_mut().enumerate() {
+                                *v = p0 + i / w;
+                            }
+                        }
+                        seen.lock().expect("lock").push((p0, np));
+                    });
+                    check_cover(seen.into_inner().expect("lock"), count, &what);
+                    for (b, w) in bufs.iter().zip(per) {
+                        assert!(owner(b, w.max(1)), "{what}: owners, four buffers");
+                    }
                 }
             }
         }

@@ -190,14 +190,14 @@ pub(crate) struct KeptStep<'a, T, R> {
 struct AdjointBuffers<T> {
     /// Field outputs `Fᵢ` (s·n): `Kᵢ` before the `Jl⁻¹` of SO(3) blocks.
     f: Vec<T>,
-    /// Stage-slope cotangents `K̄ᵢ` (s·n).
-    kbar: Vec<T>,
+    /// Per particle, the stage-slope cotangents `K̄₀ … K̄ₛ₋₁` and the cotangent `Ω̄` of the
+    /// current stage's increment, one tangent each: `(s + 1)·pt` entries per particle, so
+    /// one pass over the particles reaches all of a particle's.
+    kb: Vec<T>,
     /// Cotangent handed to the field VJP (n).
     w: Vec<T>,
     /// Stage-state cotangent `X̄ᵢ` returned by the field VJP (n).
     xbar: Vec<T>,
-    /// Cotangent `Ω̄ᵢ` of the stage increment (n).
-    obar: Vec<T>,
 }
 
 /// An explicit Runge–Kutta stepper (Euclidean blocks) that is simultaneously the

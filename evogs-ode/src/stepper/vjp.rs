@@ -1,7 +1,7 @@
 //! The exact VJP of one step: [`Stepper::step_vjp`] (formulas in its docs).
 
 use super::{Combo, KeptStep, StageValues, Stepper, jl_tr_mul};
-use crate::chunks::for_chunks2;
+use crate::chunks::for_chunks4;
 use crate::{Block, VectorField};
 use alloc::vec;
 use evogs_math::so3::exp_quat;
@@ -82,11 +82,13 @@ impl<T: Real> Stepper<T> {
     ) {
         self.check_vjp(field, y_n, lambda, d_params);
         let upto = self.needed_stages();
-        self.vjp_begin(field, t, h, y_n, upto);
+        self.ensure_adjoint_buffers();
+        self.recompute_stages(field, t, h, y_n, upto, &mut StageValues::Eval);
         let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
-        self.update_vjp(&combo, h, lambda);
-        self.add_kbar(&combo, h);
-        self.vjp_stages(field, t, h, y_n, upto, lambda, d_params);
+        self.update_pass(&combo, h, lambda, true);
+        let f = core::mem::take(&mut self.adj.f);
+        self.vjp_stages_with(field, t, h, y_n, upto, &f, lambda, d_params, None);
+        self.adj.f = f;
     }
 
     /// The argument checks of a step's VJP: the state, the cotangent and the parameter
@@ -113,11 +115,10 @@ impl<T: Real> Stepper<T> {
 
     /// [`step_vjp`](Self::step_vjp) of a step taken by
     /// [`step_recorded`](Self::step_recorded): with `Some(kept)` (what it kept) the stage
-    /// values are copied from `outputs`, the slopes, states and
-    /// increments are taken from `stages` (and handed back after) and each stage's VJP reads
-    /// its record, so no stage is formed again; with `None` the stages are evaluated again
-    /// into `scratch` (one record per stage) and their VJPs read those. Bitwise the same as
-    /// `step_vjp`.
+    /// values are read from its outputs, the slopes, states and increments are taken from
+    /// its stages (and handed back after) and each stage's VJP reads its record, so no stage
+    /// is formed again; with `None` the stages are evaluated again into `scratch` (one record
+    /// per stage) and their VJPs read those. Bitwise the same as `step_vjp`.
     pub(crate) fn step_vjp_recorded<F: VectorField<T> + ?Sized>(
         &mut self,
         field: &mut F,
@@ -132,16 +133,28 @@ impl<T: Real> Stepper<T> {
         self.check_vjp(field, y_n, lambda, d_params);
         let upto = self.needed_stages();
         self.ensure_adjoint_buffers();
-        let (records, stages): (&[F::Record], _) = match kept {
+        let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
+        match kept {
             Some(KeptStep {
                 outputs,
                 records,
                 stages,
             }) => {
-                let m = upto * self.n;
-                self.adj.f[..m].copy_from_slice(&outputs[..m]);
                 self.exchange_stages(stages);
-                (records, Some(stages))
+                self.update_pass(&combo, h, lambda, true);
+                self.vjp_stages_with(
+                    field,
+                    t,
+                    h,
+                    y_n,
+                    upto,
+                    outputs,
+                    lambda,
+                    d_params,
+                    Some(records),
+                );
+                // The tape keeps the step's stages, so a second reverse pass reads them too.
+                self.exchange_stages(stages);
             }
             None => {
                 let mut values = StageValues::Record {
@@ -149,17 +162,11 @@ impl<T: Real> Stepper<T> {
                     records: &mut *scratch,
                 };
                 self.recompute_stages(field, t, h, y_n, upto, &mut values);
-                (&*scratch, None)
+                self.update_pass(&combo, h, lambda, true);
+                let f = core::mem::take(&mut self.adj.f);
+                self.vjp_stages_with(field, t, h, y_n, upto, &f, lambda, d_params, Some(scratch));
+                self.adj.f = f;
             }
-        };
-        self.adj.kbar.fill(T::ZERO);
-        let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
-        self.update_vjp(&combo, h, lambda);
-        self.add_kbar(&combo, h);
-        self.vjp_stages_with(field, t, h, y_n, upto, lambda, d_params, Some(records));
-        if let Some(stages) = stages {
-            // The tape keeps the step's stages, so a second reverse pass reads them too.
-            self.exchange_stages(stages);
         }
     }
 
@@ -176,7 +183,7 @@ impl<T: Real> Stepper<T> {
     ) {
         self.ensure_adjoint_buffers();
         self.recompute_stages(field, t, h, y_n, upto, &mut StageValues::Eval);
-        self.adj.kbar.fill(T::ZERO);
+        self.adj.kb.fill(T::ZERO);
     }
 
     /// Transposes one update term `y_n ⊕ h Σ wᵢKᵢ` (the step's own with `w = b`, or a
@@ -186,20 +193,24 @@ impl<T: Real> Stepper<T> {
     /// without `dw`).
     pub(crate) fn vjp_update(&mut self, w: &[T], dw: Option<&[T]>, h: T, lambda: &mut [T]) -> T {
         let combo = Combo::new(w.iter().copied().enumerate());
-        self.update_vjp(&combo, h, lambda);
-        self.add_kbar(&combo, h);
+        self.update_pass(&combo, h, lambda, false);
         let Some(dw) = dw else {
             return T::ZERO;
         };
-        let n = self.n;
+        let (n, pt, r) = (self.n, self.pat.pt, self.kb_len());
+        let ob = self.s * pt;
         let mut acc = T::ZERO;
         for (i, &d) in dw.iter().enumerate() {
             if d == T::ZERO {
                 continue;
             }
+            // Ω̄ against Kᵢ, entry by entry in tangent order.
             let mut part = T::ZERO;
-            for (o, k) in self.adj.obar.iter().zip(&self.k[i * n..(i + 1) * n]) {
-                part += *o * *k;
+            let ki = &self.k[i * n..(i + 1) * n];
+            for (kb, kp) in self.adj.kb.chunks_exact(r).zip(ki.chunks_exact(pt)) {
+                for (o, k) in kb[ob..ob + pt].iter().zip(kp) {
+                    part += *o * *k;
+                }
             }
             acc += h * d * part;
         }
@@ -219,11 +230,21 @@ impl<T: Real> Stepper<T> {
         lambda: &mut [T],
         d_params: &mut [T],
     ) {
-        self.vjp_stages_with(field, t, h, y_n, upto, lambda, d_params, None);
+        let f = core::mem::take(&mut self.adj.f);
+        self.vjp_stages_with(field, t, h, y_n, upto, &f, lambda, d_params, None);
+        self.adj.f = f;
     }
 
-    /// [`vjp_stages`](Self::vjp_stages), each stage's field VJP reading `records[i]` when
-    /// given (written by the field at that stage).
+    /// [`vjp_stages`](Self::vjp_stages) with the stages' field values `Fᵢ` in `f` (stage
+    /// `i` at `f[i·n..]`), each stage's field VJP reading `records[i]` when given (written
+    /// by the field at that stage). Between two field VJPs one pass over the particles does
+    /// all the per-particle work: the transpose of stage `i`'s state and its coupling into
+    /// the earlier stages' `K̄ⱼ`, then the cotangent handed to stage `i − 1`'s field VJP
+    /// ([`Stepper::stage_pass`]).
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the field, the step, the stage values and records, and the two gradients"
+    )]
     fn vjp_stages_with<F: VectorField<T> + ?Sized>(
         &mut self,
         field: &mut F,
@@ -231,11 +252,12 @@ impl<T: Real> Stepper<T> {
         h: T,
         y_n: &[T],
         upto: usize,
+        f: &[T],
         lambda: &mut [T],
         d_params: &mut [T],
         records: Option<&[F::Record]>,
     ) {
-        let (n, na) = (self.n, y_n.len());
+        let na = y_n.len();
         let field_vjp =
             |field: &mut F, i: usize, ti: T, x: &[T], w: &[T], xbar: &mut [T], dp: &mut [T]| {
                 match records {
@@ -243,46 +265,40 @@ impl<T: Real> Stepper<T> {
                     None => field.vjp(ti, x, w, xbar, dp),
                 }
             };
+        self.stage_pass(None, Some(upto - 1), h, f, lambda);
         for i in (0..upto).rev() {
             let ti = t + self.c[i] * h;
-            self.adj.xbar.fill(T::ZERO);
-            if i == 0 {
-                // Ω₀ = 0: K₀ = ω₀ and X₀ = yₙ, so every Jacobian of the stage is the identity.
-                let kbar0 = &self.adj.kbar[..n];
-                field_vjp(field, 0, ti, y_n, kbar0, &mut self.adj.xbar, d_params);
-                for (l, xb) in lambda.iter_mut().zip(&self.adj.xbar) {
-                    *l += *xb;
-                }
-                continue;
-            }
-            // Xᵢ and Ωᵢ are in stage i's slots since the stages were recomputed.
-            if self.euclidean {
-                let xi = &self.x[i * na..(i + 1) * na];
-                let kbar_i = &self.adj.kbar[i * n..(i + 1) * n];
-                field_vjp(field, i, ti, xi, kbar_i, &mut self.adj.xbar, d_params);
-                for (l, xb) in lambda.iter_mut().zip(&self.adj.xbar) {
-                    *l += *xb;
-                }
-                self.couple(i, h, true);
+            let x = if i == 0 {
+                y_n
             } else {
-                self.stage_field_cotangent(i);
-                let xi = &self.x[i * na..(i + 1) * na];
-                field_vjp(field, i, ti, xi, &self.adj.w, &mut self.adj.xbar, d_params);
-                self.stage_state_vjp(i, lambda);
-                self.couple(i, h, false);
+                &self.x[i * na..(i + 1) * na]
+            };
+            field_vjp(field, i, ti, x, &self.adj.w, &mut self.adj.xbar, d_params);
+            if i == 0 {
+                // Ω₀ = 0: X₀ = yₙ, so the stage's state transposes to the identity.
+                for (l, xb) in lambda.iter_mut().zip(&self.adj.xbar) {
+                    *l += *xb;
+                }
+            } else {
+                self.stage_pass(Some(i), Some(i - 1), h, f, lambda);
             }
         }
     }
 
     fn ensure_adjoint_buffers(&mut self) {
         let (s, n) = (self.s, self.n);
-        if self.adj.kbar.len() != s * n {
+        if self.adj.f.len() != s * n {
             self.adj.f = vec![T::ZERO; s * n];
-            self.adj.kbar = vec![T::ZERO; s * n];
+            self.adj.kb = vec![T::ZERO; self.count * self.kb_len()];
             self.adj.w = vec![T::ZERO; n];
             self.adj.xbar = vec![T::ZERO; n];
-            self.adj.obar = vec![T::ZERO; n];
         }
+    }
+
+    /// Entries per particle of the stage-cotangent buffer: `K̄₀ … K̄ₛ₋₁` then `Ω̄`, one
+    /// tangent each.
+    const fn kb_len(&self) -> usize {
+        (self.s + 1) * self.pat.pt
     }
 
     /// The forward stages `0..upto` again, keeping the field outputs `Fᵢ` next to `Kᵢ`
@@ -313,40 +329,53 @@ impl<T: Real> Stepper<T> {
         }
     }
 
-    /// Transposes the update `y ⊕ Ω` with `Ω = h Σ wᵢKᵢ`: `λ ← Exp(Ω)ᵀλ` (SO(3)) or
-    /// `λ ← Ad(Exp(Ω))ᵀλ` (SE(3)) and `Ω̄ = Jl(Ω)ᵀλ` on Lie-group blocks, `Ω̄ = λ` on
-    /// Euclidean ones.
-    fn update_vjp(&mut self, combo: &Combo<T>, h: T, lambda: &mut [T]) {
-        let (pat, n, k) = (self.pat, self.n, &self.k);
-        for_chunks2(
+    /// Transposes the update `y ⊕ Ω` with `Ω = h Σ wᵢKᵢ`, particle by particle:
+    /// `λ ← Exp(Ω)ᵀλ` (SO(3)) or `λ ← Ad(Exp(Ω))ᵀλ` (SE(3)) and `Ω̄ = Jl(Ω)ᵀλ` on Lie-group
+    /// blocks, `Ω̄ = λ` on Euclidean ones; then `K̄ᵢ += h wᵢ Ω̄` for every term (after
+    /// clearing every `K̄ᵢ` first with `clear`).
+    fn update_pass(&mut self, combo: &Combo<T>, h: T, lambda: &mut [T], clear: bool) {
+        let (pat, n, r) = (self.pat, self.n, self.kb_len());
+        let (pt, ob) = (pat.pt, self.s * pat.pt);
+        let k = &self.k;
+        let [w, xbar] = [&mut self.adj.w, &mut self.adj.xbar];
+        for_chunks4(
             self.par,
             self.count,
-            lambda,
-            pat.pt,
-            &mut self.adj.obar,
-            pat.pt,
-            |p0, np, lc, oc| {
+            [lambda, &mut self.adj.kb, w, xbar],
+            [pt, r, pt, pt],
+            |p0, np, [lc, kc, _, _]| {
                 for p in 0..np {
-                    let gt = (p0 + p) * pat.pt;
-                    let lt = p * pat.pt;
+                    let gt = (p0 + p) * pt;
+                    let lp = &mut lc[p * pt..(p + 1) * pt];
+                    let kp = &mut kc[p * r..(p + 1) * r];
+                    if clear {
+                        kp.fill(T::ZERO);
+                    }
+                    let (kbars, obar) = kp.split_at_mut(ob);
                     for sp in pat.spans() {
-                        let e = lt + sp.tangent;
+                        let e = sp.tangent;
                         match sp.block {
                             Block::Euclidean(m) => {
-                                oc[e..e + m].copy_from_slice(&lc[e..e + m]);
+                                obar[e..e + m].copy_from_slice(&lp[e..e + m]);
                             }
                             Block::So3 => {
-                                let big = combo.vec3(k, n, gt + sp.tangent) * h;
-                                let l = Vec3::from_slice(&lc[e..]);
-                                jl_tr_mul(big, l).write_to(&mut oc[e..]);
-                                exp_quat(big).rotate_inv(l).write_to(&mut lc[e..]);
+                                let big = combo.vec3(k, n, gt + e) * h;
+                                let l = Vec3::from_slice(&lp[e..]);
+                                jl_tr_mul(big, l).write_to(&mut obar[e..]);
+                                exp_quat(big).rotate_inv(l).write_to(&mut lp[e..]);
                             }
                             Block::Se3 => {
-                                let big = combo.vec6(k, n, gt + sp.tangent) * h;
-                                let l = Vec6::from_slice(&lc[e..]);
-                                se3_jacobians::jl_tr_mul(big, l).write_to(&mut oc[e..]);
-                                Se3::exp(big).adjoint_tr_mul(l).write_to(&mut lc[e..]);
+                                let big = combo.vec6(k, n, gt + e) * h;
+                                let l = Vec6::from_slice(&lp[e..]);
+                                se3_jacobians::jl_tr_mul(big, l).write_to(&mut obar[e..]);
+                                Se3::exp(big).adjoint_tr_mul(l).write_to(&mut lp[e..]);
                             }
+                        }
+                    }
+                    for &(i, wi) in combo.terms() {
+                        let hw = h * wi;
+                        for (kb, o) in kbars[i * pt..(i + 1) * pt].iter_mut().zip(&*obar) {
+                            *kb += hw * *o;
                         }
                     }
                 }
@@ -354,132 +383,124 @@ impl<T: Real> Stepper<T> {
         );
     }
 
-    /// `K̄ᵢ += h wᵢ Ω̄` for the weights of an update term.
-    fn add_kbar(&mut self, combo: &Combo<T>, h: T) {
-        let n = self.n;
-        for &(i, w) in combo.terms() {
-            let hw = h * w;
-            for (kb, ob) in self.adj.kbar[i * n..(i + 1) * n]
-                .iter_mut()
-                .zip(&self.adj.obar)
-            {
-                *kb += hw * *ob;
-            }
-        }
-    }
-
-    /// The cotangent of the field output at stage `i`: `K̄ᵢ` on Euclidean entries, and on
-    /// SO(3) and SE(3) entries `ω̄ᵢ` with `Ω̄ᵢ` (into `obar`) from the VJP of `Jl⁻¹(Ωᵢ)·ωᵢ`.
-    fn stage_field_cotangent(&mut self, i: usize) {
-        let (pat, n) = (self.pat, self.n);
-        let (omega, f, kbar) = (&self.omega[i * n..(i + 1) * n], &self.adj.f, &self.adj.kbar);
-        for_chunks2(
+    /// One pass over the particles between two field VJPs of the reverse stage loop:
+    ///
+    /// - with `post = Some(i)`, the transpose of stage `i`'s state `Xᵢ = yₙ ⊕ Ωᵢ` at the
+    ///   field VJP's `X̄ᵢ` (`λ += X̄ᵢ`, `Ω̄ᵢ = X̄ᵢ` on Euclidean blocks; `λ += Exp(Ωᵢ)ᵀX̄ᵢ`,
+    ///   `Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ` on SO(3); the adjoint action and the SE(3) Jacobian on SE(3)),
+    ///   then its coupling `K̄ⱼ += h a_ij Ω̄ᵢ` into the earlier stages (`j < i`);
+    /// - with `pre = Some(j)`, the cotangent of stage `j`'s field output for its VJP, into
+    ///   `w`: `K̄ⱼ` on Euclidean blocks and on every block of stage 0 (`Ω₀ = 0`), and on
+    ///   SO(3) and SE(3) blocks `ω̄ⱼ` with `Ω̄ⱼ` (into `Ω̄`) from the VJP of `Jl⁻¹(Ωⱼ)·ωⱼ`
+    ///   at `K̄ⱼ` (`ωⱼ = Fⱼ`, from `f`); and `X̄` cleared for the VJP to add into.
+    ///
+    /// Each particle's entries see the operations of the separate passes in their order,
+    /// so the result is theirs bit for bit, in one trip over the particles.
+    fn stage_pass(
+        &mut self,
+        post: Option<usize>,
+        pre: Option<usize>,
+        h: T,
+        f: &[T],
+        lambda: &mut [T],
+    ) {
+        let (pat, n, r, s) = (self.pat, self.n, self.kb_len(), self.s);
+        let (pt, ob) = (pat.pt, s * pat.pt);
+        let (a, omega) = (&self.a, &self.omega);
+        for_chunks4(
             self.par,
             self.count,
-            &mut self.adj.w,
-            pat.pt,
-            &mut self.adj.obar,
-            pat.pt,
-            |p0, np, wc, oc| {
+            [
+                lambda,
+                &mut self.adj.kb,
+                &mut self.adj.w,
+                &mut self.adj.xbar,
+            ],
+            [pt, r, pt, pt],
+            |p0, np, [lc, kc, wc, xc]| {
                 for p in 0..np {
-                    let gt = (p0 + p) * pat.pt;
-                    let lt = p * pat.pt;
-                    for sp in pat.spans() {
-                        let (e, ge) = (lt + sp.tangent, gt + sp.tangent);
-                        match sp.block {
-                            Block::Euclidean(m) => {
-                                wc[e..e + m].copy_from_slice(&kbar[i * n + ge..i * n + ge + m]);
-                            }
-                            Block::So3 => {
-                                let (d_big, d_omega) = jl_inv_mul_vjp(
-                                    Vec3::from_slice(&omega[ge..]),
-                                    Vec3::from_slice(&f[i * n + ge..]),
-                                    Vec3::from_slice(&kbar[i * n + ge..]),
-                                );
-                                d_omega.write_to(&mut wc[e..]);
-                                d_big.write_to(&mut oc[e..]);
-                            }
-                            Block::Se3 => {
-                                let (d_big, d_xi) = se3_jacobians::jl_inv_mul_vjp(
-                                    Vec6::from_slice(&omega[ge..]),
-                                    Vec6::from_slice(&f[i * n + ge..]),
-                                    Vec6::from_slice(&kbar[i * n + ge..]),
-                                );
-                                d_xi.write_to(&mut wc[e..]);
-                                d_big.write_to(&mut oc[e..]);
-                            }
-                        }
-                    }
-                }
-            },
-        );
-    }
-
-    /// Transposes `Xᵢ = yₙ ⊕ Ωᵢ`: `λ += X̄ᵢ`, `Ω̄ᵢ = X̄ᵢ` (Euclidean);
-    /// `λ += Exp(Ωᵢ)ᵀX̄ᵢ`, `Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ` (SO(3));
-    /// `λ += Ad(Exp(Ωᵢ))ᵀX̄ᵢ`, `Ω̄ᵢ += Jl(Ωᵢ)ᵀX̄ᵢ` (SE(3)).
-    fn stage_state_vjp(&mut self, i: usize, lambda: &mut [T]) {
-        let (pat, n) = (self.pat, self.n);
-        let (omega, xbar) = (&self.omega[i * n..(i + 1) * n], &self.adj.xbar);
-        for_chunks2(
-            self.par,
-            self.count,
-            lambda,
-            pat.pt,
-            &mut self.adj.obar,
-            pat.pt,
-            |p0, np, lc, oc| {
-                for p in 0..np {
-                    let gt = (p0 + p) * pat.pt;
-                    let lt = p * pat.pt;
-                    for sp in pat.spans() {
-                        let (e, ge) = (lt + sp.tangent, gt + sp.tangent);
-                        match sp.block {
-                            Block::Euclidean(m) => {
-                                for (l, xb) in lc[e..e + m].iter_mut().zip(&xbar[ge..ge + m]) {
-                                    *l += *xb;
+                    let gt = (p0 + p) * pt;
+                    let lp = &mut lc[p * pt..(p + 1) * pt];
+                    let (kbars, obar) = kc[p * r..(p + 1) * r].split_at_mut(ob);
+                    let wp = &mut wc[p * pt..(p + 1) * pt];
+                    let xp = &mut xc[p * pt..(p + 1) * pt];
+                    if let Some(i) = post {
+                        let om = &omega[i * n + gt..i * n + gt + pt];
+                        for sp in pat.spans() {
+                            let e = sp.tangent;
+                            match sp.block {
+                                Block::Euclidean(m) => {
+                                    for (l, xb) in lp[e..e + m].iter_mut().zip(&xp[e..e + m]) {
+                                        *l += *xb;
+                                    }
+                                    obar[e..e + m].copy_from_slice(&xp[e..e + m]);
                                 }
-                                oc[e..e + m].copy_from_slice(&xbar[ge..ge + m]);
+                                Block::So3 => {
+                                    let big = Vec3::from_slice(&om[e..]);
+                                    let xb = Vec3::from_slice(&xp[e..]);
+                                    let l =
+                                        Vec3::from_slice(&lp[e..]) + exp_quat(big).rotate_inv(xb);
+                                    l.write_to(&mut lp[e..]);
+                                    let o = Vec3::from_slice(&obar[e..]) + jl_tr_mul(big, xb);
+                                    o.write_to(&mut obar[e..]);
+                                }
+                                Block::Se3 => {
+                                    let big = Vec6::from_slice(&om[e..]);
+                                    let xb = Vec6::from_slice(&xp[e..]);
+                                    Se3::exp(big).adjoint_tr_mul(xb).add_to(&mut lp[e..]);
+                                    se3_jacobians::jl_tr_mul(big, xb).add_to(&mut obar[e..]);
+                                }
                             }
-                            Block::So3 => {
-                                let big = Vec3::from_slice(&omega[ge..]);
-                                let xb = Vec3::from_slice(&xbar[ge..]);
-                                let l = Vec3::from_slice(&lc[e..]) + exp_quat(big).rotate_inv(xb);
-                                l.write_to(&mut lc[e..]);
-                                let o = Vec3::from_slice(&oc[e..]) + jl_tr_mul(big, xb);
-                                o.write_to(&mut oc[e..]);
+                        }
+                        for j in 0..i {
+                            let aij = a[i][j];
+                            if aij == T::ZERO {
+                                continue;
                             }
-                            Block::Se3 => {
-                                let big = Vec6::from_slice(&omega[ge..]);
-                                let xb = Vec6::from_slice(&xbar[ge..]);
-                                Se3::exp(big).adjoint_tr_mul(xb).add_to(&mut lc[e..]);
-                                se3_jacobians::jl_tr_mul(big, xb).add_to(&mut oc[e..]);
+                            let ha = h * aij;
+                            for (kb, o) in kbars[j * pt..(j + 1) * pt].iter_mut().zip(&*obar) {
+                                *kb += ha * *o;
+                            }
+                        }
+                    }
+                    if let Some(j) = pre {
+                        xp.fill(T::ZERO);
+                        let kbar = &kbars[j * pt..(j + 1) * pt];
+                        if j == 0 {
+                            wp.copy_from_slice(kbar);
+                            continue;
+                        }
+                        let (om, fj) = (&omega[j * n + gt..], &f[j * n + gt..]);
+                        for sp in pat.spans() {
+                            let e = sp.tangent;
+                            match sp.block {
+                                Block::Euclidean(m) => {
+                                    wp[e..e + m].copy_from_slice(&kbar[e..e + m]);
+                                }
+                                Block::So3 => {
+                                    let (d_big, d_omega) = jl_inv_mul_vjp(
+                                        Vec3::from_slice(&om[e..]),
+                                        Vec3::from_slice(&fj[e..]),
+                                        Vec3::from_slice(&kbar[e..]),
+                                    );
+                                    d_omega.write_to(&mut wp[e..]);
+                                    d_big.write_to(&mut obar[e..]);
+                                }
+                                Block::Se3 => {
+                                    let (d_big, d_xi) = se3_jacobians::jl_inv_mul_vjp(
+                                        Vec6::from_slice(&om[e..]),
+                                        Vec6::from_slice(&fj[e..]),
+                                        Vec6::from_slice(&kbar[e..]),
+                                    );
+                                    d_xi.write_to(&mut wp[e..]);
+                                    d_big.write_to(&mut obar[e..]);
+                                }
                             }
                         }
                     }
                 }
             },
         );
-    }
-
-    /// `K̄ⱼ += h a_ij Ω̄ᵢ` for `j < i` (`Ω̄ᵢ = X̄ᵢ` when the layout is Euclidean).
-    fn couple(&mut self, i: usize, h: T, euclidean: bool) {
-        let n = self.n;
-        let src = if euclidean {
-            &self.adj.xbar
-        } else {
-            &self.adj.obar
-        };
-        for j in 0..i {
-            let a = self.a[i][j];
-            if a == T::ZERO {
-                continue;
-            }
-            let ha = h * a;
-            for (kb, o) in self.adj.kbar[j * n..(j + 1) * n].iter_mut().zip(src) {
-                *kb += ha * *o;
-            }
-        }
     }
 }
 
@@ -523,13 +544,8 @@ mod tests {
         let (mut st, mut f) = stepper_and_field();
         let mut d = [0.0; 4];
         st.step_vjp(&mut f, 0.0, 0.1, &[1.0, 2.0], &mut [1.0, 0.5], &mut d);
-        let buffers = |st: &Stepper<f64>| {
-            (
-                st.adj.f.as_ptr(),
-                st.adj.kbar.as_ptr(),
-                st.adj.obar.as_ptr(),
-            )
-        };
+        let buffers =
+            |st: &Stepper<f64>| (st.adj.f.as_ptr(), st.adj.kb.as_ptr(), st.adj.w.as_ptr());
         let first = buffers(&st);
         for k in 1..4 {
             st.step_vjp(
