@@ -38,6 +38,7 @@
 use crate::Image;
 use crate::ssim::SsimWorkspace;
 use crate::sum::{CHUNK, chunked_sum};
+use alloc::vec::Vec;
 use evogs_math::{Par, Real};
 
 /// `sign(d)` with `sign(0) = 0` (the subgradient used at the kink of `|d|`).
@@ -202,6 +203,8 @@ pub struct PhotometricLoss<T> {
     pub l1: T,
     /// The SSIM (3DGS variant, [`crate::ssim`]).
     pub ssim: T,
+    /// The mean squared error ([`l2`], bitwise), for a PSNR; not part of `total`.
+    pub mse: T,
 }
 
 /// The 3DGS photometric loss `(1 − λ)·L1(render, target) + λ·(1 − SSIM(render, target))`
@@ -220,13 +223,61 @@ pub fn photometric_loss_and_grad<T: Real>(
     par: Par,
 ) -> PhotometricLoss<T> {
     let w1 = T::ONE - lambda_ssim;
-    let l1 = l1_and_grad(render, target, g * w1, d_render);
+    let (l1, mse) = l1_and_grad_with_mse(render, target, g * w1, d_render, par);
     let ssim = ws.ssim_and_grad(render, target, -(g * lambda_ssim), d_render, par);
     PhotometricLoss {
         total: w1 * l1 + lambda_ssim * (T::ONE - ssim),
         l1,
         ssim,
+        mse,
     }
+}
+
+/// [`l1_and_grad`] and [`l2`] in one pass over the values, its fixed 1024-value chunks on
+/// `par`'s pool: each chunk adds its gradient and returns its two sums, which are then
+/// added in chunk order, as the sequential functions add them (the same bits).
+fn l1_and_grad_with_mse<T: Real>(
+    a: &Image<T>,
+    b: &Image<T>,
+    g: T,
+    d_a: &mut Image<T>,
+    par: Par,
+) -> (T, T) {
+    let n = value_count(a, b);
+    check_grad(a, d_a);
+    let nt = T::from_usize(n);
+    let s = g / nt;
+    let chunk = |((ca, cb), cg): ((&[T], &[T]), &mut [T])| {
+        for ((g, &x), &y) in cg.iter_mut().zip(ca).zip(cb) {
+            *g += s * sign(x - y);
+        }
+        (
+            chunked_sum(ca, cb, |x, y| (x - y).abs()),
+            chunked_sum(ca, cb, |x, y| (x - y).sq()),
+        )
+    };
+    let (ad, bd) = (a.data(), b.data());
+    let sums: Vec<(T, T)> = match par {
+        Par::Seq => ad
+            .chunks(CHUNK)
+            .zip(bd.chunks(CHUNK))
+            .zip(d_a.data_mut().chunks_mut(CHUNK))
+            .map(chunk)
+            .collect(),
+        #[cfg(feature = "rayon")]
+        Par::Rayon => {
+            use rayon::prelude::*;
+            ad.par_chunks(CHUNK)
+                .zip(bd.par_chunks(CHUNK))
+                .zip(d_a.data_mut().par_chunks_mut(CHUNK))
+                .map(chunk)
+                .collect()
+        }
+    };
+    let (l1, sq) = sums
+        .into_iter()
+        .fold((T::ZERO, T::ZERO), |(l, q), (cl, cq)| (l + cl, q + cq));
+    (l1 / nt, sq / nt)
 }
 
 /// The 3DGS photometric loss alone (no gradient); see [`photometric_loss_and_grad`].
@@ -247,6 +298,7 @@ pub fn photometric_loss<T: Real>(
         total: w1 * l1 + lambda_ssim * (T::ONE - ssim),
         l1,
         ssim,
+        mse: l2(render, target),
     }
 }
 
@@ -258,6 +310,52 @@ mod tests {
         let a = Image::from_vec(2, 1, vec![0.1, 0.5, 0.9, 0.3, 0.7, 0.2]).expect("image");
         let b = Image::from_vec(2, 1, vec![0.2, 0.4, 0.6, 0.6, 0.5, 0.4]).expect("image");
         (a, b)
+    }
+
+    #[test]
+    fn the_training_loss_has_the_l1_and_mse_and_gradient_of_the_separate_functions_bitwise() {
+        // More values than a few chunks (and a ragged last chunk), on one thread and on the
+        // pool: the fused pass gives the separate functions' bits.
+        let (w, h) = (37, 29);
+        let wave = |k: f64| -> Vec<f32> {
+            (0..3 * w * h)
+                .map(|i| {
+                    #[allow(clippy::cast_possible_truncation, reason = "test values")]
+                    let v = (0.5 + 0.45 * (i as f64 * k).sin()) as f32;
+                    v
+                })
+                .collect()
+        };
+        let a = Image::from_vec(w, h, wave(0.37)).expect("image");
+        let b = Image::from_vec(w, h, wave(0.11)).expect("image");
+        let (lambda, g) = (0.2_f32, 0.7_f32);
+        let mut want = Image::new(w, h);
+        let l1_want = l1_and_grad(&a, &b, g * (1.0 - lambda), &mut want);
+        let ssim_want =
+            SsimWorkspace::new().ssim_and_grad(&a, &b, -(g * lambda), &mut want, Par::Seq);
+        let bits = |x: &[f32]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for par in [Par::Seq, Par::best()] {
+            let mut got = Image::new(w, h);
+            let loss = photometric_loss_and_grad(
+                &mut SsimWorkspace::new(),
+                &a,
+                &b,
+                lambda,
+                g,
+                &mut got,
+                par,
+            );
+            assert_eq!(loss.l1.to_bits(), l1_want.to_bits(), "{par:?}: L1");
+            assert_eq!(loss.ssim.to_bits(), ssim_want.to_bits(), "{par:?}: SSIM");
+            assert_eq!(loss.mse.to_bits(), l2(&a, &b).to_bits(), "{par:?}: MSE");
+            assert_eq!(bits(got.data()), bits(want.data()), "{par:?}: gradient");
+            let plain = photometric_loss(&mut SsimWorkspace::new(), &a, &b, lambda, par);
+            assert_eq!(
+                plain.mse.to_bits(),
+                loss.mse.to_bits(),
+                "{par:?}: MSE without gradient"
+            );
+        }
     }
 
     #[test]

@@ -279,11 +279,10 @@ pub fn view_loss_and_grad<T: Gemm>(
     let adjoint_start = std::time::Instant::now();
     model.backward_at(&tape, &mut ws.stepper, &g.splats, grad);
     timings.adjoint = adjoint_start.elapsed().as_secs_f64();
-    let mse = evogs_splat::metrics::mse(&fwd.raster.rgb, &view.image).to_f64();
     let mut losses = StepLosses {
         l1: photo.l1.to_f64(),
         ssim: photo.ssim.to_f64(),
-        mse,
+        mse: photo.mse.to_f64(),
         ..StepLosses::default()
     };
     losses.total = weight * photo.total.to_f64();
