@@ -207,9 +207,12 @@ impl<T: Real> Stepper<T> {
             // Ω̄ against Kᵢ, entry by entry in tangent order.
             let mut part = T::ZERO;
             let ki = &self.k[i * n..(i + 1) * n];
-            for (kb, kp) in self.adj.kb.chunks_exact(r).zip(ki.chunks_exact(pt)) {
-                for (o, k) in kb[ob..ob + pt].iter().zip(kp) {
-                    part += *o * *k;
+            // (A layout of no entries has nothing to add, and no chunks of zero length.)
+            if pt > 0 {
+                for (kb, kp) in self.adj.kb.chunks_exact(r).zip(ki.chunks_exact(pt)) {
+                    for (o, k) in kb[ob..ob + pt].iter().zip(kp) {
+                        part += *o * *k;
+                    }
                 }
             }
             acc += h * d * part;

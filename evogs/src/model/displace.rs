@@ -162,3 +162,83 @@ pub fn displace_vjp<T: Gemm>(
         g_means[i] += Vec3::from_slice(&d_pos[i * 3..]);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::TrainConfig;
+    use crate::field::TimeMapping;
+    use evogs_splat::random_scene;
+
+    /// The displacement and its VJP on the pool are bitwise the sequential ones, over more
+    /// Gaussians than one run (and a ragged last run).
+    #[test]
+    fn the_pool_gives_the_bits_of_one_thread() {
+        let n = 2 * RUN + 37;
+        let (canonical, _) = random_scene::<f32>(n, 32, 4, [0.01, 0.05], [0.3, 0.9]);
+        let cfg = TrainConfig::fast().field;
+        let time = TimeMapping::Normalized {
+            t_min: 0.0,
+            t_max: 1.0,
+        };
+        let run = |par: Par| {
+            let mut field = NeuralField::new(&cfg, [-2.0; 3], [2.0; 3], time, 7);
+            // Non-zero output weights, so that the displacement moves every Gaussian.
+            for (i, p) in field.params_mut().iter_mut().enumerate() {
+                #[allow(clippy::cast_precision_loss, reason = "test values")]
+                let v = ((i * 7919) % 1000) as f32 * 1e-3 - 0.5;
+                *p = v * 0.2;
+            }
+            field.set_par(par);
+            field.set_count(n);
+            let (mut m, mut s, mut q) = (
+                canonical.means.clone(),
+                canonical.log_scales.clone(),
+                canonical.quats.clone(),
+            );
+            let mut record = FieldRecord::default();
+            let net = displace(
+                &mut field,
+                &mut record,
+                &canonical,
+                0.3,
+                (&mut m, &mut s, &mut q),
+            );
+            let (dm, ds, dq) = (m.clone(), s.clone(), q.clone());
+            let (mut gm, mut gs, mut gq) = (m.clone(), s.clone(), q.clone());
+            let mut d_params = vec![0.0; field.params().len()];
+            displace_vjp(
+                &mut field,
+                Some(&record),
+                &canonical,
+                0.3,
+                &net,
+                (&dm, &ds, &dq),
+                (&mut gm, &mut gs, &mut gq),
+                &mut d_params,
+            );
+            let flat = |v: Vec<f32>| v.into_iter().map(f32::to_bits).collect::<Vec<_>>();
+            let vec3s = |v: &[Vec3<f32>]| flat(v.iter().flat_map(|x| x.to_array()).collect());
+            let quats =
+                |v: &[Quat<f32>]| flat(v.iter().flat_map(|x| [x.w, x.x, x.y, x.z]).collect());
+            (
+                [vec3s(&m), vec3s(&s), quats(&q)],
+                [vec3s(&gm), vec3s(&gs), quats(&gq)],
+                flat(d_params),
+            )
+        };
+        let seq = run(Par::Seq);
+        let before = |v: &[Vec3<f32>]| {
+            v.iter()
+                .flat_map(|x| x.to_array())
+                .map(f32::to_bits)
+                .collect::<Vec<_>>()
+        };
+        assert_ne!(seq.0[0], before(&canonical.means), "the Gaussians moved");
+        assert_eq!(
+            seq,
+            run(Par::best()),
+            "states, gradients and field gradient"
+        );
+    }
+}
