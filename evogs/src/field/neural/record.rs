@@ -67,7 +67,7 @@ impl<T: Gemm> FieldRecord<T> {
 
 impl<T: Gemm> NeuralField<T> {
     /// The bytes that the records kept for later VJPs may take together (a
-    /// [`StageTape`](evogs_ode::StageTape) keeps the records of the last ODE steps that fit,
+    /// [`StageTape`] keeps the records of the last ODE steps that fit,
     /// [`records_within_budget`](Self::records_within_budget), and the adjoint evaluates
     /// the earlier steps again). Each costs [`evaluation_bytes`](Self::evaluation_bytes):
     /// at the `paper` size (F = W = 64) and N = 20 000, 30 MB in f32.
@@ -84,8 +84,7 @@ impl<T: Gemm> NeuralField<T> {
 
     /// The bytes one kept evaluation of `n` Gaussians takes: its record,
     /// `N·(F + 4W + 9)` scalars for F features and MLP width W (rounded up to whole chunks),
-    /// and what the stage tape keeps beside it
-    /// ([`StageTape::scalars_per_stage`](evogs_ode::StageTape::scalars_per_stage) of the
+    /// and what the stage tape keeps beside it ([`StageTape::scalars_per_stage`] of the
     /// Gaussian layout: the stage's value, slope and increment, 9 each, and its state, 10).
     #[must_use]
     pub fn evaluation_bytes(&self, n: usize) -> usize {
