@@ -69,12 +69,18 @@ impl AdamStep {
     ) {
         let mut count = 0;
         for ((x, gi), (m, v)) in pairs.zip(m.iter_mut().zip(v.iter_mut())) {
-            *m = self.b1 * *m + (1.0 - self.b1) * gi;
-            *v = self.b2 * *v + (1.0 - self.b2) * gi * gi;
-            *x -= self.step_size * *m / (v.sqrt() * self.inv_sqrt_bc2 + self.eps);
+            self.value(x, gi, m, v);
             count += 1;
         }
         assert_eq!(count, m.len(), "Adam group size mismatch");
+    }
+
+    /// The update of one value `x` with gradient `g` and moments `m`, `v`.
+    #[inline(always)]
+    fn value(self, x: &mut f32, g: f32, m: &mut f32, v: &mut f32) {
+        *m = self.b1 * *m + (1.0 - self.b1) * g;
+        *v = self.b2 * *v + (1.0 - self.b2) * g * g;
+        *x -= self.step_size * *m / (v.sqrt() * self.inv_sqrt_bc2 + self.eps);
     }
 
     /// [`apply`](Self::apply) to contiguous parameters and gradients: the same arithmetic
@@ -90,9 +96,7 @@ impl AdamStep {
             "Adam group size mismatch"
         );
         for (((x, &gi), m), v) in x.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
-            *m = self.b1 * *m + (1.0 - self.b1) * gi;
-            *v = self.b2 * *v + (1.0 - self.b2) * gi * gi;
-            *x -= self.step_size * *m / (v.sqrt() * self.inv_sqrt_bc2 + self.eps);
+            self.value(x, gi, m, v);
         }
     }
 }
