@@ -144,11 +144,7 @@ pub fn l1_vjp<T: Real>(a: &Image<T>, b: &Image<T>, g: T, d_a: &mut Image<T>) {
 /// # Panics
 /// If the sizes of `a`, `b` and `d_a` differ or the images are empty.
 pub fn l1_and_grad<T: Real>(a: &Image<T>, b: &Image<T>, g: T, d_a: &mut Image<T>) -> T {
-    let n = value_count(a, b);
-    check_grad(a, d_a);
-    let nt = T::from_usize(n);
-    let s = g / nt;
-    fused(a.data(), b.data(), d_a.data_mut(), T::abs, |d| s * sign(d)) / nt
+    l1_and_grad_with_mse(a, b, g, d_a, Par::Seq).0
 }
 
 /// Mean squared error `(1/N) Σ (a_i − b_i)²` over all `N = 3·H·W` values (the L2 loss).
