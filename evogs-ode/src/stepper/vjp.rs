@@ -1,7 +1,7 @@
 //! The exact VJP of one step: [`Stepper::step_vjp`] (formulas in its docs).
 
 use super::{Combo, KeptStep, StageValues, Stepper, jl_tr_mul};
-use crate::chunks::for_chunks4;
+use crate::chunks::{for_chunks2, for_chunks4};
 use crate::{Block, VectorField};
 use alloc::vec;
 use evogs_math::so3::exp_quat;
@@ -86,9 +86,7 @@ impl<T: Real> Stepper<T> {
         self.recompute_stages(field, t, h, y_n, upto, &mut StageValues::Eval);
         let combo = Combo::new((0..self.s).map(|i| (i, self.b[i])));
         self.update_pass(&combo, h, lambda, true);
-        let f = core::mem::take(&mut self.adj.f);
-        self.vjp_stages_with(field, t, h, y_n, upto, &f, lambda, d_params, None);
-        self.adj.f = f;
+        self.vjp_stages(field, t, h, y_n, upto, lambda, d_params);
     }
 
     /// The argument checks of a step's VJP: the state, the cotangent and the parameter
@@ -340,13 +338,14 @@ impl<T: Real> Stepper<T> {
         let (pat, n, r) = (self.pat, self.n, self.kb_len());
         let (pt, ob) = (pat.pt, self.s * pat.pt);
         let k = &self.k;
-        let [w, xbar] = [&mut self.adj.w, &mut self.adj.xbar];
-        for_chunks4(
+        for_chunks2(
             self.par,
             self.count,
-            [lambda, &mut self.adj.kb, w, xbar],
-            [pt, r, pt, pt],
-            |p0, np, [lc, kc, _, _]| {
+            lambda,
+            pt,
+            &mut self.adj.kb,
+            r,
+            |p0, np, lc, kc| {
                 for p in 0..np {
                     let gt = (p0 + p) * pt;
                     let lp = &mut lc[p * pt..(p + 1) * pt];
