@@ -81,7 +81,9 @@ impl<T: Real, R: Default> StageTape<T, R> {
         self.capacity = capacity;
         self.records.truncate(capacity);
         self.records.shrink_to_fit();
-        self.stages_kept.truncate(capacity);
+        // One set of stage buffers per kept step (none before a first run: `stages` is 0).
+        self.stages_kept
+            .truncate(capacity.checked_div(self.stages).unwrap_or(0));
         self.stages_kept.shrink_to_fit();
     }
 
