@@ -488,7 +488,7 @@ impl<T: Gemm> NeuralField<T> {
                 }
             }
             Gather::Mlp(d_mlp) => {
-                for partial in partials.chunks(n_mlp).take(n.div_ceil(CHUNK)) {
+                for partial in partials.chunks(n_mlp) {
                     for (d, &p) in d_mlp.iter_mut().zip(partial) {
                         *d += p;
                     }
