@@ -247,15 +247,10 @@ impl<T: Gemm> Model<T> {
 }
 
 impl<T: Gemm> ModelGrad<T> {
-    /// Sets every entry to zero; `par` zeroes the colours, the opacities and the field's
-    /// parameters (most of the entries) in runs on the pool.
+    /// Sets every entry to zero; `par` zeroes the field's parameters (most of the
+    /// entries) in runs on the pool.
     pub fn fill_zero(&mut self, par: Par) {
-        let c = &mut self.canonical;
-        c.means.fill(Vec3::zero());
-        c.log_scales.fill(Vec3::zero());
-        c.quats.fill(Quat::zero());
-        zero_runs(&mut c.opacity_logits, par);
-        zero_runs(c.sh.as_flattened_mut(), par);
+        self.canonical.fill_zero();
         for a in &mut self.anchors {
             a.fill_zero();
         }
