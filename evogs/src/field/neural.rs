@@ -37,7 +37,7 @@ use super::profile::FieldProfile;
 use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
 use evogs_ode::{Block, StateLayout, VectorField};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 
 mod record;
@@ -109,8 +109,7 @@ pub struct BatchVjp<'a, T> {
 }
 
 /// One chunk's share of a batched VJP: its MLP gradient partial, its lookup records,
-/// sample gradients and position gradients (outputs), the chunk of the forward record and
-/// the chunk's scratch.
+/// sample gradients and position gradients (outputs), and the chunk of the forward record.
 struct ChunkVjp<'a, T> {
     /// Chunk index.
     index: usize,
@@ -124,8 +123,6 @@ struct ChunkVjp<'a, T> {
     d_pos: &'a mut [T],
     /// The chunk's features and activations from the forward pass.
     record: &'a ChunkRecord<T>,
-    /// Scratch.
-    work: &'a mut ChunkWork<T>,
 }
 
 /// HexPlane + MLP with all parameters in one flat vector `[planes…, MLP…, output scales]`.
@@ -146,8 +143,12 @@ pub struct NeuralField<T> {
     /// Bytes the records a [`StageTape`](evogs_ode::StageTape) keeps may take together
     /// ([`EVAL_BUDGET_BYTES`] by default).
     eval_budget: usize,
-    /// Scratch per chunk, shared by every evaluation and VJP.
-    work: Vec<ChunkWork<T>>,
+    /// The VJP's scratch, one per thread: a chunk takes the scratch of the thread that runs
+    /// it, so the scratch stays in that core's caches from one chunk to the next (one per
+    /// chunk left every chunk's scratch cold: the products that write it ran 1.2–3× slower,
+    /// `docs/performance.md`). The lock is never contended (one thread, one slot); it is what
+    /// lets a chunk reach its thread's slot without `unsafe`.
+    work: Vec<Mutex<ChunkWork<T>>>,
     /// Incremented on every parameter change: a record written before is refused.
     generation: u64,
     /// Opt-in timing ([`set_profile`](Self::set_profile)).
@@ -382,10 +383,16 @@ impl<T: Gemm> NeuralField<T> {
         self.cells.resize(n * n_lk, CellRecord::default());
         self.d_samples.resize(n * n_lk * ch, T::ZERO);
         self.d_pos.resize(n * 3, T::ZERO);
-        self.ensure_work(n_chunks);
+        self.ensure_work(threads(self.par));
         let (hex, mlp, params) = (&self.hex, &self.mlp, &self.params);
         let profile = self.profile.as_deref();
+        let works = &self.work;
         let run = |c: ChunkVjp<'_, T>| {
+            // Scratch only: whatever a panicking chunk left in it is overwritten.
+            let mut work = works[thread_index(self.par) % works.len()]
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner);
+            let work = &mut *work;
             let rows = c.cells.len() / n_lk;
             let pos = &positions[c.index * CHUNK * stride..];
             let d_o = &d_out[c.index * CHUNK * N_OUT..c.index * CHUNK * N_OUT + rows * N_OUT];
@@ -395,9 +402,9 @@ impl<T: Gemm> NeuralField<T> {
                 &c.record.features,
                 rows,
                 &c.record.act,
-                &mut c.work.mlp,
+                &mut work.mlp,
                 d_o,
-                &mut c.work.d_features,
+                &mut work.d_features,
                 c.partial,
                 profile,
             );
@@ -408,15 +415,14 @@ impl<T: Gemm> NeuralField<T> {
                 pos,
                 stride,
                 rows,
-                &c.work.d_features,
-                &mut c.work.samples,
+                &work.d_features,
+                &mut work.samples,
                 c.cells,
                 c.d_samples,
                 c.d_pos,
             );
         };
         let records = rec.chunks(n_chunks);
-        let works = &mut self.work[..n_chunks];
         match self.par {
             Par::Seq => self
                 .partials
@@ -424,7 +430,7 @@ impl<T: Gemm> NeuralField<T> {
                 .zip(self.cells.chunks_mut(CHUNK * n_lk))
                 .zip(self.d_samples.chunks_mut(CHUNK * n_lk * ch))
                 .zip(self.d_pos.chunks_mut(CHUNK * 3))
-                .zip(records.iter().zip(works.iter_mut()))
+                .zip(records)
                 .enumerate()
                 .map(ChunkVjp::from_zip)
                 .for_each(run),
@@ -436,7 +442,7 @@ impl<T: Gemm> NeuralField<T> {
                     .zip(self.cells.par_chunks_mut(CHUNK * n_lk))
                     .zip(self.d_samples.par_chunks_mut(CHUNK * n_lk * ch))
                     .zip(self.d_pos.par_chunks_mut(CHUNK * 3))
-                    .zip(records.par_iter().zip(works.par_iter_mut()))
+                    .zip(records.par_iter())
                     .enumerate()
                     .map(ChunkVjp::from_zip)
                     .for_each(run);
@@ -513,6 +519,24 @@ impl<T: Gemm> NeuralField<T> {
     }
 }
 
+/// The threads a pass with `par` runs on: the current pool's under rayon, else one.
+fn threads(par: Par) -> usize {
+    match par {
+        Par::Seq => 1,
+        #[cfg(feature = "rayon")]
+        Par::Rayon => rayon::current_num_threads(),
+    }
+}
+
+/// The index of the calling thread among [`threads`]`(par)` (0 outside the pool).
+fn thread_index(par: Par) -> usize {
+    match par {
+        Par::Seq => 0,
+        #[cfg(feature = "rayon")]
+        Par::Rayon => rayon::current_thread_index().unwrap_or(0),
+    }
+}
+
 /// One task of [`NeuralField::gather`]: a plane of the gradient (level, plane), the MLP's
 /// part of the gradient, or the position gradients.
 enum Gather<'a, T> {
@@ -529,14 +553,14 @@ type ChunkZip<'a, T> = (
             ((&'a mut [T], &'a mut [CellRecord<T>]), &'a mut [T]),
             &'a mut [T],
         ),
-        (&'a ChunkRecord<T>, &'a mut ChunkWork<T>),
+        &'a ChunkRecord<T>,
     ),
 );
 
 impl<'a, T> ChunkVjp<'a, T> {
     /// Names the zipped slices of chunk `index`.
     fn from_zip(
-        (index, ((((partial, cells), d_samples), d_pos), (record, work))): ChunkZip<'a, T>,
+        (index, ((((partial, cells), d_samples), d_pos), record)): ChunkZip<'a, T>,
     ) -> Self {
         Self {
             index,
@@ -545,7 +569,6 @@ impl<'a, T> ChunkVjp<'a, T> {
             d_samples,
             d_pos,
             record,
-            work,
         }
     }
 }

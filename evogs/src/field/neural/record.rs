@@ -7,6 +7,7 @@ use crate::field::gemm::Gemm;
 use crate::field::hexplane::HexPlane;
 use crate::field::mlp::Mlp;
 use evogs_ode::StageTape;
+use std::sync::Mutex;
 
 /// The default budget of the records kept for the VJPs: 512 MiB (every stage of a
 /// `paper`-size RK4 frame of 16 evaluations at 20 000 Gaussians fits in it).
@@ -93,10 +94,11 @@ impl<T: Gemm> NeuralField<T> {
         (n.div_ceil(CHUNK) * CHUNK * record + tape) * core::mem::size_of::<T>()
     }
 
-    /// Grows the per-chunk scratch to `n_chunks` chunks.
-    pub(super) fn ensure_work(&mut self, n_chunks: usize) {
-        while self.work.len() < n_chunks {
-            self.work.push(ChunkWork::new(&self.hex, &self.mlp));
+    /// Grows the VJP's scratch to one per thread of `threads`.
+    pub(super) fn ensure_work(&mut self, threads: usize) {
+        while self.work.len() < threads {
+            self.work
+                .push(Mutex::new(ChunkWork::new(&self.hex, &self.mlp)));
         }
     }
 }
