@@ -18,6 +18,7 @@
 //! gradient checks. Matrices are (slice, row stride, column stride), so a transposed operand is
 //! just swapped strides.
 
+use super::heads::{self, HeadsVjp};
 use super::lanes::{LANES, coord_grad_f32x8, coord_grad_sums};
 use evogs_math::Real;
 use faer::{Accum, MatMut, MatRef as FaerRef, Par};
@@ -42,6 +43,14 @@ pub trait Gemm: Real {
         acc: &mut ([Self; LANES], [Self; LANES]),
     ) {
         coord_grad_sums(g, corners, fx, fy, acc);
+    }
+
+    /// The heads' backward for columns `j0..j0 + LANES` of head `h` (`field::heads`): what
+    /// `heads::block` computes, in the same operations and order per lane, so the result
+    /// is bitwise the same; a type may do it in vector registers.
+    #[inline]
+    fn heads_vjp_lanes(v: &mut HeadsVjp<'_, Self>, h: usize, j0: usize) {
+        heads::block::<Self, LANES>(v, h, j0);
     }
 
     /// `C ← alpha·A·B + beta·C` with `A` m×k, `B` k×n and `C` m×n given as strided views.
@@ -200,6 +209,12 @@ impl Gemm for f32 {
         acc: &mut ([Self; LANES], [Self; LANES]),
     ) {
         coord_grad_f32x8(g, corners, fx, fy, acc);
+    }
+
+    /// Explicit 8-lane vectors (`heads::block_f32x8`).
+    #[inline]
+    fn heads_vjp_lanes(v: &mut HeadsVjp<'_, Self>, h: usize, j0: usize) {
+        heads::block_f32x8(v, h, j0);
     }
 
     fn gemm(

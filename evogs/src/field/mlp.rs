@@ -12,6 +12,7 @@
 //! weights (gain 1), zero biases: the initial velocity is small but not zero.
 
 use super::gemm::{Gemm, row_major, transposed};
+use super::heads::{HeadsVjp, heads_vjp};
 use super::profile::{FieldProfile, GemmTimer};
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
@@ -118,13 +119,14 @@ impl Mlp {
     }
 
     /// Floating-point operations of the matrix products of [`backward`](Self::backward) per
-    /// row: per head the weight gradient and the input gradient of the output layer
-    /// (`2·3·W` each), then those of the fused heads (`2·3W·W` each) and of the trunk
-    /// (`2·W·F` each).
+    /// row: the weight gradient and the input gradient of the fused heads (`2·3W·W` each)
+    /// and of the trunk (`2·W·F` each). The heads' thin output layers (`2·3·W` each way per
+    /// head) are not matrix products there: a fused kernel does them with the rectifiers
+    /// (`field::heads`).
     #[must_use]
     pub const fn backward_flops_per_row(&self) -> u64 {
         let (f, w) = (self.input as u64, self.width as u64);
-        36 * w + 12 * w * w + 4 * w * f
+        12 * w * w + 4 * w * f
     }
 
     /// Floating-point operations of the matrix products of `forward_rows` rows forward and
@@ -277,37 +279,20 @@ impl Mlp {
             N_OUT,
             &mut d_params[self.b2()..so],
         );
-        for h in 0..3 {
-            let w2 = self.w2() + 3 * h * w;
-            // dW2_h += d_raw_hᵀ · relu(H_h)
-            gemm.time(|| {
-                T::gemm(
-                    T::ONE,
-                    (&work.d_raw[3 * h..], 3, rows, 1, N_OUT),
-                    (&act.heads[h * w..], rows, w, 3 * w, 1),
-                    T::ONE,
-                    (&mut d_params[w2..w2 + 3 * w], 3, w, w, 1),
-                );
-            });
-            // d relu(H_h) = d_raw_h · W2_h
-            gemm.time(|| {
-                T::gemm(
-                    T::ONE,
-                    (&work.d_raw[3 * h..], rows, 3, N_OUT, 1),
-                    row_major(&p[w2..w2 + 3 * w], 3, w),
-                    T::ZERO,
-                    (&mut work.d_heads[h * w..], rows, w, 3 * w, 1),
-                );
-            });
-        }
-        relu_mask(
-            &act.heads[..rows * 3 * w],
-            &mut work.d_heads[..rows * 3 * w],
-        );
-        col_sums(
-            &work.d_heads[..rows * 3 * w],
-            3 * w,
-            &mut d_params[self.b1()..self.w2()],
+        // The output layers, the rectifiers and the bias sums of the heads in one pass.
+        let (b1, w2, b2) = (self.b1(), self.w2(), self.b2());
+        let (d_b1, d_w2) = d_params[b1..b2].split_at_mut(w2 - b1);
+        heads_vjp(
+            &mut HeadsVjp {
+                w,
+                x: &act.heads[..rows * 3 * w],
+                d_raw: &work.d_raw[..rows * N_OUT],
+                w2: &p[w2..b2],
+                d_w2,
+                d_b1,
+                d_heads: &mut work.d_heads[..rows * 3 * w],
+            },
+            T::heads_vjp_lanes,
         );
         gemm.time(|| {
             T::gemm(
@@ -396,14 +381,20 @@ mod tests {
     #[test]
     fn flop_counts_follow_the_layer_shapes() {
         // Paper size: F = 2 levels × 32 channels, W = 64. Forward: 64·64 + 64·192 + 3·64·3
-        // multiply-adds per row; backward: twice that (weight and input gradients).
+        // multiply-adds per row; backward: twice those of the trunk and the fused heads
+        // (weight and input gradients; the thin output layers go through `heads`).
         let m = Mlp {
             input: 64,
             width: 64,
         };
         let fwd_madds = 64 * 64 + 64 * 192 + 3 * 64 * 3;
+        let bwd_madds = 2 * (64 * 64 + 64 * 192);
         assert_eq!(m.forward_flops_per_row(), 2 * fwd_madds, "forward");
-        assert_eq!(m.backward_flops_per_row(), 4 * fwd_madds, "backward");
-        assert_eq!(m.gemm_flops(3, 2), (3 * 2 + 2 * 4) * fwd_madds, "total");
+        assert_eq!(m.backward_flops_per_row(), 2 * bwd_madds, "backward");
+        assert_eq!(
+            m.gemm_flops(3, 2),
+            3 * 2 * fwd_madds + 2 * 2 * bwd_madds,
+            "total"
+        );
     }
 }

@@ -3,6 +3,7 @@
 
 mod chunk;
 pub mod gemm;
+mod heads;
 pub mod hexplane;
 mod lanes;
 pub mod mlp;
