@@ -36,7 +36,7 @@ use evogs_math::{Quat, Real, Vec3};
 /// assert_eq!(s.len(), 1);
 /// assert_eq!(s.sh_coeffs(0).len(), 4);
 /// ```
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Debug, Default, PartialEq)]
 pub struct Splats<T> {
     /// Storage SH degree (0 to 3): `(sh_degree + 1)²` coefficients per Gaussian.
     pub sh_degree: usize,
@@ -50,6 +50,31 @@ pub struct Splats<T> {
     pub opacity_logits: Vec<T>,
     /// SH coefficients, `(sh_degree + 1)²` RGB triples per Gaussian, DC first.
     pub sh: Vec<[T; 3]>,
+}
+
+/// `clone_from` copies into the buffers it has (the derived one would allocate new ones and
+/// free the old: a render that starts from the canonical Gaussians every iteration paid page
+/// faults for it).
+impl<T: Clone> Clone for Splats<T> {
+    fn clone(&self) -> Self {
+        Self {
+            sh_degree: self.sh_degree,
+            means: self.means.clone(),
+            log_scales: self.log_scales.clone(),
+            quats: self.quats.clone(),
+            opacity_logits: self.opacity_logits.clone(),
+            sh: self.sh.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.sh_degree = source.sh_degree;
+        self.means.clone_from(&source.means);
+        self.log_scales.clone_from(&source.log_scales);
+        self.quats.clone_from(&source.quats);
+        self.opacity_logits.clone_from(&source.opacity_logits);
+        self.sh.clone_from(&source.sh);
+    }
 }
 
 /// Gradient of a loss with respect to every field of [`Splats`] (same layout).
@@ -349,6 +374,25 @@ mod tests {
         let (mut s, _) = benchmark_scene::<f64>(3, 8, 1);
         s.fill_zero();
         assert_eq!(s, Splats::zeros(3, 3));
+    }
+
+    #[test]
+    fn clone_from_copies_into_the_buffers_it_has() {
+        let (a, _) = benchmark_scene::<f64>(5, 8, 1);
+        let (b, _) = benchmark_scene::<f64>(5, 8, 2);
+        let mut c = a.clone();
+        assert_eq!(c, a, "clone");
+        let at = (c.means.as_ptr(), c.quats.as_ptr(), c.sh.as_ptr());
+        c.clone_from(&b);
+        assert_eq!(c, b, "clone_from");
+        assert_eq!(
+            at,
+            (c.means.as_ptr(), c.quats.as_ptr(), c.sh.as_ptr()),
+            "same buffers"
+        );
+        let small = Splats::<f64>::zeros(2, 1);
+        c.clone_from(&small);
+        assert_eq!(c, small, "into a different size and degree");
     }
 
     #[test]
