@@ -48,6 +48,7 @@ fn a_tiny_bench_reports_consistent_figures() {
         sizes: vec![FieldSize::Fast],
         threads: Some(2),
         single_thread: true,
+        rounds: 1,
         json: Some(json.clone()),
         seed: 7,
         machine: false,
@@ -158,6 +159,35 @@ fn a_tiny_bench_reports_consistent_figures() {
 }
 
 #[test]
+fn rounds_alternate_the_pool_and_one_thread_and_repeat_the_same_iterations() {
+    let args = BenchArgs {
+        gaussians: 200,
+        warmup: 0,
+        iters: 2,
+        motions: vec![Motion::Deformation],
+        sizes: vec![FieldSize::Fast],
+        threads: Some(2),
+        rounds: 3,
+        ..BenchArgs::default()
+    };
+    let report = run_bench(&args, &mut Silent).expect("the bench runs");
+    assert_eq!(report.rounds, 3, "reported");
+    let row = &report.rows[0];
+    assert_eq!(row.samples.len(), 6, "every round's timed iterations");
+    // Every round starts from the same fresh model: its losses repeat the first round's.
+    assert_eq!(row.losses.len(), 6, "one loss per timed iteration");
+    for (k, l) in row.losses.iter().enumerate() {
+        assert_eq!(l.to_bits(), row.losses[k % 2].to_bits(), "iteration {k}");
+    }
+    let one = row.single_thread.expect("a one-thread run");
+    assert!(
+        one.same_losses,
+        "one thread computes the same losses in every round"
+    );
+    assert!(report.table().contains("x 3 rounds"), "{}", report.table());
+}
+
+#[test]
 fn bad_arguments_name_the_flag() {
     let base = BenchArgs {
         gaussians: 10,
@@ -190,6 +220,13 @@ fn bad_arguments_name_the_flag() {
         ),
         (
             BenchArgs {
+                rounds: 0,
+                ..base.clone()
+            },
+            "--rounds",
+        ),
+        (
+            BenchArgs {
                 motions: vec![Motion::Static],
                 ..base.clone()
             },
@@ -219,6 +256,7 @@ fn the_binary_rejects_bad_flags_in_one_line() {
         (&["--iters", "0"][..], "--iters", 2),
         (&["--warmup", "1.5"][..], "--warmup", 2),
         (&["--threads", "0"][..], "--threads", 2),
+        (&["--rounds", "0"][..], "--rounds", 2),
         // Lists are parsed with the command line too: a usage error like the counts.
         (&["--sizes", "paper,huge"][..], "--sizes", 2),
         (&["--motions", "static"][..], "--motions", 2),

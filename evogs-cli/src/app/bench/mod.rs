@@ -128,6 +128,11 @@ pub struct BenchArgs {
         help = "Skip the one-thread runs (no speed-up column)"
     )]
     pub single_thread: bool,
+    /// Rounds per configuration: each runs the warm-up and timed iterations on the pool and
+    /// then on one thread, so that a drift of the machine's speed during the bench falls on
+    /// both sides of the speed-up alike (the figures are over every round's iterations).
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = positive_count)]
+    pub rounds: u64,
     /// Also write every figure to this JSON file.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -150,6 +155,7 @@ impl Default for BenchArgs {
             sizes: vec![FieldSize::Paper, FieldSize::Fast],
             threads: None,
             single_thread: true,
+            rounds: 1,
             json: None,
             seed: 0,
             machine: false,
@@ -242,6 +248,9 @@ pub fn run_bench(args: &BenchArgs, rep: &mut dyn Reporter) -> Result<BenchReport
     if args.iters == 0 {
         return Err(CommandError::new("--iters: at least 1 timed iteration"));
     }
+    if args.rounds == 0 {
+        return Err(CommandError::new("--rounds: at least 1 round"));
+    }
     if args.sizes.is_empty() || args.motions.is_empty() {
         return Err(CommandError::new(
             "the bench needs at least one size (--sizes) and one motion (--motions)",
@@ -274,14 +283,26 @@ pub fn run_bench(args: &BenchArgs, rep: &mut dyn Reporter) -> Result<BenchReport
         for &motion in &args.motions {
             peak_rss_reset &= reset_peak_rss();
             let rss_at_start_bytes = current_rss_bytes();
-            let main = run_pool(&scene, size, motion, args, &pool, rep)?;
+            // Round 1 gives the peak memory (the pool's, before the one-thread run).
+            let mut main = run_pool(&scene, size, motion, args, &pool, rep)?;
+            let mut one = match &single {
+                Some(t) => Some(run_pool(&scene, size, motion, args, t, rep)?),
+                None => None,
+            };
+            for _ in 1..args.rounds {
+                let more = run_pool(&scene, size, motion, args, &pool, rep)?;
+                main.samples.extend(more.samples);
+                if let (Some(o), Some(t)) = (&mut one, &single) {
+                    o.samples
+                        .extend(run_pool(&scene, size, motion, args, t, rep)?.samples);
+                }
+            }
             let threads = pool.count();
             let seconds: Vec<f64> = main.samples.iter().map(|s| s.seconds).collect();
             let losses: Vec<f64> = main.samples.iter().map(|s| s.loss).collect();
             let summary = Summary::of(&seconds);
-            let single_thread = match &single {
-                Some(one) => {
-                    let o = run_pool(&scene, size, motion, args, one, rep)?;
+            let single_thread = match one {
+                Some(o) => {
                     let secs: Vec<f64> = o.samples.iter().map(|s| s.seconds).collect();
                     let s = Summary::of(&secs);
                     #[allow(clippy::float_cmp, reason = "bitwise equality is the claim")]
@@ -340,6 +361,7 @@ pub fn run_bench(args: &BenchArgs, rep: &mut dyn Reporter) -> Result<BenchReport
         image: [scene.camera.width, scene.camera.height],
         warmup: args.warmup,
         iters: args.iters,
+        rounds: args.rounds,
         seed: args.seed,
         peak_rss_reset,
         rows,

@@ -241,14 +241,23 @@ pub struct BenchReport {
     pub image: [usize; 2],
     /// Untimed iterations before the timed ones (per configuration and pool).
     pub warmup: u64,
-    /// Timed iterations.
+    /// Timed iterations (per round).
     pub iters: u64,
+    /// Rounds per configuration (pool, then one thread, each round; 1 in reports written
+    /// before the flag existed).
+    #[serde(default = "one_round")]
+    pub rounds: u64,
     /// Scene seed.
     pub seed: u64,
     /// Whether the peak RSS was reset before each configuration.
     pub peak_rss_reset: bool,
     /// One row per (size, motion).
     pub rows: Vec<BenchRow>,
+}
+
+/// The rounds of a report that does not name them.
+const fn one_round() -> u64 {
+    1
 }
 
 /// `bytes` in MiB, or `n/a`.
@@ -270,13 +279,18 @@ impl BenchReport {
         let cpu = self.cpu.as_deref().unwrap_or("unknown CPU");
         let _ = writeln!(
             s,
-            "evogs {} bench: {} Gaussians, {}x{} image, {} warm-up + {} timed iterations, {} threads ({} logical CPUs, {cpu})",
+            "evogs {} bench: {} Gaussians, {}x{} image, {} warm-up + {} timed iterations{}, {} threads ({} logical CPUs, {cpu})",
             self.version,
             self.gaussians,
             self.image[0],
             self.image[1],
             self.warmup,
             self.iters,
+            if self.rounds > 1 {
+                format!(" x {} rounds", self.rounds)
+            } else {
+                String::new()
+            },
             self.threads,
             self.logical_cpus
         );
