@@ -29,6 +29,7 @@
 //!
 //! The library never prints: long work reports through callbacks, and errors are typed.
 
+pub mod aligned;
 pub mod atomic;
 pub mod bounded;
 pub mod config;

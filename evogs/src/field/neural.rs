@@ -34,6 +34,7 @@ use super::gemm::Gemm;
 use super::hexplane::{CellRecord, HexPlane, HexPlaneConfig, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
 use super::profile::FieldProfile;
+use crate::aligned::CacheAligned;
 use evogs_math::Par;
 use evogs_math::rng::SplitMix64;
 use evogs_ode::{Block, StateLayout, VectorField};
@@ -130,7 +131,8 @@ struct ChunkVjp<'a, T> {
 pub struct NeuralField<T> {
     hex: HexPlane,
     mlp: Mlp,
-    params: Vec<T>,
+    /// On a cache-line boundary, so that every texel is whole cache lines (`crate::aligned`).
+    params: CacheAligned<T>,
     count: usize,
     par: Par,
     partials: Vec<T>,
@@ -170,7 +172,7 @@ impl<T: Gemm> NeuralField<T> {
             input: hex.feature_dim(),
             width: cfg.width,
         };
-        let mut params = vec![T::ZERO; hex.n_params() + mlp.n_params()];
+        let mut params = CacheAligned::new(hex.n_params() + mlp.n_params(), T::ZERO);
         let mut rng = SplitMix64::new(seed);
         hex.init_params(&mut rng, &mut params[..hex.n_params()]);
         mlp.init_params(

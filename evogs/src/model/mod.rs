@@ -33,6 +33,7 @@ pub use dynamics::FrameTape;
 pub use hop::{HopLaw, HopRender, HopSettings, HopStart};
 pub use render::render_options;
 
+use crate::aligned::CacheAligned;
 use crate::field::{Gemm, NeuralField};
 use evogs_math::{Par, Quat, Vec3};
 use evogs_ode::Method;
@@ -119,8 +120,9 @@ pub struct ModelGrad<T> {
     pub canonical: SplatsGrad<T>,
     /// Anchors `1..K`.
     pub anchors: Vec<AnchorState<T>>,
-    /// Field parameters.
-    pub field: Vec<T>,
+    /// Field parameters (on a cache-line boundary, like the field's own: the plane scatter
+    /// adds into it texel by texel).
+    pub field: CacheAligned<T>,
     /// Waypoint-field parameters (empty without continuous waypoints).
     pub waypoint_field: Vec<T>,
 }
@@ -191,7 +193,7 @@ impl<T: Gemm> Model<T> {
         ModelGrad {
             canonical: self.canonical.zeros_like(),
             anchors: self.anchors.iter().map(AnchorState::zeros_like).collect(),
-            field: vec![T::ZERO; self.field.params().len()],
+            field: CacheAligned::new(self.field.params().len(), T::ZERO),
             waypoint_field: vec![
                 T::ZERO;
                 self.waypoint_field.as_ref().map_or(0, |f| f.params().len())
@@ -344,7 +346,7 @@ mod tests {
         ModelGrad {
             canonical: SplatsGrad::zeros(3, 1),
             anchors: Vec::new(),
-            field: vec![0.0; 2 * RUN + 7],
+            field: CacheAligned::new(2 * RUN + 7, 0.0),
             waypoint_field: vec![0.0; 5],
         }
     }

@@ -106,7 +106,7 @@ pub fn parameter_hash(model: &crate::model::Model<f32>) -> u64 {
     let params = crate::model::ModelGrad {
         canonical: model.canonical.clone(),
         anchors: model.anchors.clone(),
-        field: model.field.params().to_vec(),
+        field: crate::aligned::CacheAligned::from_slice(model.field.params()),
         waypoint_field: model
             .waypoint_field
             .as_ref()
