@@ -86,7 +86,9 @@ macro_rules! with_channels {
 }
 
 /// Samples every plane for `rows` positions and forms the features (the Hadamard product of
-/// a level's six samples, each sample multiplied straight into the features).
+/// a level's six samples, each sample multiplied straight into the features). (Compiled for
+/// the build's vector width: the widest, as [`decode_chunk_vjp`] is, made the forward 3–6 %
+/// slower on the AVX-512 machine of `docs/performance.md`.)
 fn encode_chunk<T: Gemm>(
     hex: &HexPlane,
     params: &[T],
@@ -191,6 +193,16 @@ fn leave_one_out_block<T: Real, const W: usize>(
 /// scatter, plane-major within the chunk: record `(l·6 + q)·rows + r`) and the position
 /// gradients (written into `d_pos`, 3 per row). The six samples of a level are recomputed
 /// into `samples` (scratch of at least `6·C`) from the texels the coordinate gradients read.
+///
+/// Compiled for the widest vector instructions the CPU has: [`pulp::Arch`] picks them at
+/// run time (AVX-512, AVX2, NEON or scalar; the unsafe part lives in pulp) and runs the
+/// body compiled with them. Its channel loops are plain loops and its lane sums fixed
+/// arrays, so every width computes the same bits. On the AVX-512 machine of
+/// `docs/performance.md` the field VJP took 3–5 % less than with the build's AVX2.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "a chunk's inputs, outputs and scratch"
+)]
 pub(super) fn decode_chunk_vjp<T: Gemm>(
     hex: &HexPlane,
     params: &[T],
@@ -204,6 +216,62 @@ pub(super) fn decode_chunk_vjp<T: Gemm>(
     dss: &mut [T],
     d_pos: &mut [T],
 ) {
+    pulp::Arch::new().dispatch(Decode {
+        hex,
+        params,
+        t,
+        pos,
+        stride,
+        rows,
+        d_features,
+        samples,
+        cells,
+        dss,
+        d_pos,
+    });
+}
+
+/// The operands of [`decode_chunk_vjp`].
+struct Decode<'a, T> {
+    hex: &'a HexPlane,
+    params: &'a [T],
+    t: T,
+    pos: &'a [T],
+    stride: usize,
+    rows: usize,
+    d_features: &'a [T],
+    samples: &'a mut [T],
+    cells: &'a mut [CellRecord<T>],
+    dss: &'a mut [T],
+    d_pos: &'a mut [T],
+}
+
+/// The body runs inside pulp's function for the chosen instructions, so it must be inlined
+/// there (a closure's body is not, and would keep the build's width).
+impl<T: Gemm> pulp::WithSimd for Decode<'_, T> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        decode_rows(self);
+    }
+}
+
+/// The body of [`decode_chunk_vjp`].
+#[inline(always)]
+fn decode_rows<T: Gemm>(d: Decode<'_, T>) {
+    let Decode {
+        hex,
+        params,
+        t,
+        pos,
+        stride,
+        rows,
+        d_features,
+        samples,
+        cells,
+        dss,
+        d_pos,
+    } = d;
     let fd = hex.feature_dim();
     with_channels!(hex.channels(), |ch| {
         let smp = &mut samples[..6 * ch];
@@ -236,4 +304,74 @@ pub(super) fn decode_chunk_vjp<T: Gemm>(
             }
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::hexplane::{HexPlaneConfig, TimeMapping};
+    use evogs_math::rng::SplitMix64;
+
+    /// The decode run at the widest width the CPU has (through pulp) gives the bits of the
+    /// body compiled for the build's width, for both specialised channel counts and a
+    /// run-time one (on a CPU without wider instructions both are the same code).
+    #[test]
+    fn the_dispatched_decode_is_bitwise_the_builds() {
+        for channels in [32, 16, 12] {
+            let cfg = HexPlaneConfig {
+                channels,
+                resolution: [9, 7, 8, 5],
+                multires: vec![1, 2],
+            };
+            let time = TimeMapping::Normalized {
+                t_min: 0.0,
+                t_max: 1.0,
+            };
+            let hex = HexPlane::new(&cfg, [-1.0; 3], [1.0; 3], time);
+            let mut rng = SplitMix64::new(11);
+            let mut draw = |n: usize, lo: f64, hi: f64| -> Vec<f32> {
+                #[allow(clippy::cast_possible_truncation, reason = "test data")]
+                (0..n).map(|_| rng.uniform(lo, hi) as f32).collect()
+            };
+            let params = draw(hex.n_params(), 0.1, 1.0);
+            let rows = 37;
+            let pos = draw(rows * 3, -1.2, 1.2);
+            let d_features = draw(rows * hex.feature_dim(), -1.0, 1.0);
+            let n_lk = hex.n_lookups();
+            let run = |dispatch: bool| {
+                let mut samples = vec![0.0; 6 * channels];
+                let mut cells = vec![CellRecord::default(); rows * n_lk];
+                let mut dss = vec![0.0; rows * n_lk * channels];
+                let mut d_pos = vec![0.0; rows * 3];
+                let d = Decode {
+                    hex: &hex,
+                    params: &params,
+                    t: 0.3,
+                    pos: &pos,
+                    stride: 3,
+                    rows,
+                    d_features: &d_features,
+                    samples: &mut samples,
+                    cells: &mut cells,
+                    dss: &mut dss,
+                    d_pos: &mut d_pos,
+                };
+                if dispatch {
+                    pulp::Arch::new().dispatch(d);
+                } else {
+                    decode_rows(d);
+                }
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                (cells, bits(&dss), bits(&d_pos))
+            };
+            let (widest, build) = (run(true), run(false));
+            assert_eq!(widest.0, build.0, "{channels} channels: records");
+            assert_eq!(widest.1, build.1, "{channels} channels: sample gradients");
+            assert_eq!(widest.2, build.2, "{channels} channels: position gradients");
+            assert!(
+                widest.2.iter().any(|&b| b != 0),
+                "the positions have a gradient"
+            );
+        }
+    }
 }
