@@ -59,11 +59,31 @@ impl<T: Clone> CacheAligned<T> {
                 out.clone_from_slice(values);
                 out
             }
-            None => Self {
-                buf: Vec::new(),
-                start: 0,
-                len: 0,
-            },
+            None => Self::default(),
+        }
+    }
+}
+
+impl<T: Clone> CacheAligned<T> {
+    /// Resizes to `len` values like `Vec::resize` (the first values kept, new ones
+    /// `value`), in a new aligned buffer when the length changes.
+    pub fn resize(&mut self, len: usize, value: T) {
+        if len != self.len {
+            let mut out = Self::new(len, value);
+            let keep = len.min(self.len);
+            out[..keep].clone_from_slice(&self[..keep]);
+            *self = out;
+        }
+    }
+}
+
+impl<T> Default for CacheAligned<T> {
+    /// An empty buffer.
+    fn default() -> Self {
+        Self {
+            buf: Vec::new(),
+            start: 0,
+            len: 0,
         }
     }
 }
@@ -115,6 +135,22 @@ mod tests {
                 assert_eq!(b.as_ptr() as usize % CACHE_LINE, 0, "f64, {len}");
             }
         }
+    }
+
+    #[test]
+    fn resize_keeps_the_first_values_and_the_alignment() {
+        let mut a = CacheAligned::<f32>::default();
+        assert!(a.is_empty());
+        a.resize(10, 2.0);
+        a[3] = 7.0;
+        a.resize(100, 1.0);
+        assert_eq!(
+            (a.len(), a[3].to_bits(), a[50].to_bits()),
+            (100, 7.0_f32.to_bits(), 1.0_f32.to_bits())
+        );
+        assert_eq!(a.as_ptr() as usize % CACHE_LINE, 0);
+        a.resize(4, 0.0);
+        assert_eq!((a.len(), a[3].to_bits()), (4, 7.0_f32.to_bits()));
     }
 
     #[test]

@@ -8,6 +8,7 @@ use super::hexplane::{CellRecord, HexPlane};
 use super::lanes::LANES;
 use super::mlp::{Mlp, MlpActivations, MlpWork, N_OUT};
 use super::profile::FieldProfile;
+use crate::aligned::CacheAligned;
 use evogs_math::Real;
 
 /// Gaussians per work chunk. 512 against 256 took 6 % off the bench's iteration at both
@@ -21,7 +22,7 @@ pub const CHUNK: usize = 512;
 #[derive(Debug)]
 pub(super) struct ChunkRecord<T> {
     /// The features (MLP input), `[row][feature]`.
-    pub(super) features: Vec<T>,
+    pub(super) features: CacheAligned<T>,
     /// The MLP activations.
     pub(super) act: MlpActivations<T>,
 }
@@ -30,7 +31,7 @@ impl<T: Gemm> ChunkRecord<T> {
     /// A record sized for [`CHUNK`] rows.
     pub(super) fn new(hex: &HexPlane, mlp: &Mlp) -> Self {
         Self {
-            features: vec![T::ZERO; CHUNK * hex.feature_dim()],
+            features: CacheAligned::new(CHUNK * hex.feature_dim(), T::ZERO),
             act: MlpActivations::new(mlp, CHUNK),
         }
     }
@@ -47,7 +48,7 @@ pub(super) struct ChunkWork<T> {
     /// The six sampled C-vectors of one level of one row.
     pub(super) samples: Vec<T>,
     /// The gradient of the features.
-    pub(super) d_features: Vec<T>,
+    pub(super) d_features: CacheAligned<T>,
     /// The MLP's backward scratch.
     pub(super) mlp: MlpWork<T>,
 }
@@ -57,7 +58,7 @@ impl<T: Gemm> ChunkWork<T> {
     pub(super) fn new(hex: &HexPlane, mlp: &Mlp) -> Self {
         Self {
             samples: vec![T::ZERO; 6 * hex.channels()],
-            d_features: vec![T::ZERO; CHUNK * hex.feature_dim()],
+            d_features: CacheAligned::new(CHUNK * hex.feature_dim(), T::ZERO),
             mlp: MlpWork::new(mlp, CHUNK),
         }
     }

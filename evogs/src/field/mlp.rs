@@ -14,6 +14,7 @@
 use super::gemm::{Gemm, row_major, transposed};
 use super::heads::{HeadsVjp, heads_vjp};
 use super::profile::{FieldProfile, GemmTimer};
+use crate::aligned::CacheAligned;
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
 
@@ -35,11 +36,11 @@ pub struct Mlp {
 #[derive(Clone, Debug, Default)]
 pub struct MlpActivations<T> {
     /// relu(T), the trunk's activations (rows × W).
-    pub trunk: Vec<T>,
+    pub trunk: CacheAligned<T>,
     /// relu(H), the heads' hidden activations (rows × 3W).
-    pub heads: Vec<T>,
+    pub heads: CacheAligned<T>,
     /// Unscaled outputs Y (rows × 9).
-    pub raw: Vec<T>,
+    pub raw: CacheAligned<T>,
 }
 
 impl<T: Real> MlpActivations<T> {
@@ -48,9 +49,9 @@ impl<T: Real> MlpActivations<T> {
     pub fn new(mlp: &Mlp, rows: usize) -> Self {
         let w = mlp.width;
         Self {
-            trunk: vec![T::ZERO; rows * w],
-            heads: vec![T::ZERO; rows * 3 * w],
-            raw: vec![T::ZERO; rows * N_OUT],
+            trunk: CacheAligned::new(rows * w, T::ZERO),
+            heads: CacheAligned::new(rows * 3 * w, T::ZERO),
+            raw: CacheAligned::new(rows * N_OUT, T::ZERO),
         }
     }
 }
@@ -59,11 +60,11 @@ impl<T: Real> MlpActivations<T> {
 #[derive(Clone, Debug, Default)]
 pub struct MlpWork<T> {
     /// Gradient of the heads' pre-activations (rows × 3W).
-    pub d_heads: Vec<T>,
+    pub d_heads: CacheAligned<T>,
     /// Gradient of the trunk's pre-activations (rows × W).
-    pub d_trunk: Vec<T>,
+    pub d_trunk: CacheAligned<T>,
     /// Gradient of the unscaled outputs (rows × 9).
-    pub d_raw: Vec<T>,
+    pub d_raw: CacheAligned<T>,
 }
 
 impl<T: Real> MlpWork<T> {
@@ -72,9 +73,9 @@ impl<T: Real> MlpWork<T> {
     pub fn new(mlp: &Mlp, rows: usize) -> Self {
         let w = mlp.width;
         Self {
-            d_heads: vec![T::ZERO; rows * 3 * w],
-            d_trunk: vec![T::ZERO; rows * w],
-            d_raw: vec![T::ZERO; rows * N_OUT],
+            d_heads: CacheAligned::new(rows * 3 * w, T::ZERO),
+            d_trunk: CacheAligned::new(rows * w, T::ZERO),
+            d_raw: CacheAligned::new(rows * N_OUT, T::ZERO),
         }
     }
 }

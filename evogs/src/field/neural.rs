@@ -137,7 +137,8 @@ pub struct NeuralField<T> {
     par: Par,
     partials: Vec<T>,
     cells: Vec<CellRecord<T>>,
-    d_samples: Vec<T>,
+    /// On a cache-line boundary like the parameters: it holds one C-vector per lookup.
+    d_samples: CacheAligned<T>,
     d_pos: Vec<T>,
     /// The record of evaluations made without one of the caller's, and of the forward pass
     /// a VJP without a record runs again.
@@ -189,7 +190,7 @@ impl<T: Gemm> NeuralField<T> {
             par: Par::Seq,
             partials: Vec::new(),
             cells: Vec::new(),
-            d_samples: Vec::new(),
+            d_samples: CacheAligned::default(),
             d_pos: Vec::new(),
             scratch: FieldRecord::default(),
             eval_budget: EVAL_BUDGET_BYTES,
