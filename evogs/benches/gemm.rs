@@ -1,7 +1,9 @@
 //! The matrix products of one chunk of the paper-size MLP (F = W = 64, [`CHUNK`] rows)
 //! through [`Gemm::gemm`], each with the shapes, strides and β that `field::mlp` passes:
 //! the two forward products and the heads' three thin ones (only the first is timed: the
-//! other two are the same shape), then the backward's weight and input gradients. The
+//! other two are the same shape), then the backward's weight and input gradients (the
+//! backward of the heads' thin output layers is not a matrix product there: a fused kernel
+//! does it with the rectifiers, `field/heads.rs`). The
 //! rate of each product against the machine's FMA peak (`tools/fma-peak`) is what
 //! `docs/performance.md` reports for the field's GEMMs.
 //!
@@ -69,7 +71,7 @@ const fn transposed_of(rows: usize, cols: usize) -> Layout {
     }
 }
 
-fn cases() -> [Case; 9] {
+fn cases() -> [Case; 7] {
     let row = Layout::rows;
     [
         Case {
@@ -102,40 +104,6 @@ fn cases() -> [Case; 9] {
                 cs: 1,
             },
             beta: 1.0,
-        },
-        Case {
-            name: "backward dW2 (thin), 3 x R . R x W",
-            a: Layout {
-                rows: 3,
-                cols: R,
-                rs: 1,
-                cs: OUT,
-            },
-            b: Layout {
-                rows: R,
-                cols: W,
-                rs: 3 * W,
-                cs: 1,
-            },
-            c: row(3, W),
-            beta: 1.0,
-        },
-        Case {
-            name: "backward d_heads (thin), R x 3 . 3 x W",
-            a: Layout {
-                rows: R,
-                cols: 3,
-                rs: OUT,
-                cs: 1,
-            },
-            b: row(3, W),
-            c: Layout {
-                rows: R,
-                cols: W,
-                rs: 3 * W,
-                cs: 1,
-            },
-            beta: 0.0,
         },
         Case {
             name: "backward dW1, 3W x R . R x W",
