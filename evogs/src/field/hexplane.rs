@@ -473,7 +473,7 @@ impl HexPlane {
     }
 
     /// Adds `g ⊗ (bilinear weights)` into the four corners of a lookup (the parameter VJP).
-    #[inline]
+    #[inline(always)]
     pub fn scatter<T: Real>(d_params: &mut [T], lk: &Lookup<T>, g: &[T]) {
         let (w00, w10, w01, w11) = corner_weights(lk.fx, lk.fy);
         let n = g.len();

@@ -29,7 +29,7 @@
 //! parameter change is an error, never a silent wrong gradient. Both ways give bitwise the
 //! same results.
 
-use super::chunk::{CHUNK, ChunkRecord, ChunkWork, decode_chunk_vjp, forward_chunk};
+use super::chunk::{CHUNK, ChunkRecord, ChunkWork, decode_chunk_vjp, forward_chunk, scatter_plane};
 use super::gemm::Gemm;
 use super::hexplane::{CellRecord, HexPlane, HexPlaneConfig, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
@@ -489,11 +489,14 @@ impl<T: Gemm> NeuralField<T> {
                     // The chunk's records of plane k are contiguous (see decode_chunk_vjp).
                     let rows = CHUNK.min(n - c0);
                     let first = c0 * n_lk + k * rows;
-                    let plane_cells = &cells[first..first + rows];
-                    let gs = &d_samples[first * ch..(first + rows) * ch];
-                    for (cell, g) in plane_cells.iter().zip(gs.chunks_exact(ch)) {
-                        HexPlane::scatter(plane, &hex.plane_lookup(l, p, cell), g);
-                    }
+                    scatter_plane(
+                        hex,
+                        l,
+                        p,
+                        &cells[first..first + rows],
+                        &d_samples[first * ch..(first + rows) * ch],
+                        plane,
+                    );
                 }
             }
             Gather::Mlp(d_mlp) => {
