@@ -264,22 +264,24 @@ impl Mlp {
         let (f, w) = (self.input, self.width);
         let p = params;
         let mut gemm = GemmTimer::new(profile);
-        let so = self.scales_offset();
+        let (so, b2) = (self.scales_offset(), self.b2());
+        // The output scales' and last biases' gradients summed over the rows in registers
+        // (row by row from the values they had, as sums into `d_params` would add).
+        let mut d_scales: [T; 3] = core::array::from_fn(|s| d_params[so + s]);
+        let mut d_b2: [T; N_OUT] = core::array::from_fn(|k| d_params[b2 + k]);
         for ((dr, d), r) in work.d_raw[..rows * N_OUT]
             .chunks_exact_mut(N_OUT)
             .zip(d_out.chunks_exact(N_OUT))
             .zip(act.raw.chunks_exact(N_OUT))
         {
             for k in 0..N_OUT {
-                d_params[so + k / 3] += d[k] * r[k];
+                d_scales[k / 3] += d[k] * r[k];
                 dr[k] = d[k] * p[so + k / 3];
+                d_b2[k] += dr[k];
             }
         }
-        col_sums(
-            &work.d_raw[..rows * N_OUT],
-            N_OUT,
-            &mut d_params[self.b2()..so],
-        );
+        d_params[so..so + 3].copy_from_slice(&d_scales);
+        d_params[b2..so].copy_from_slice(&d_b2);
         // The output layers, the rectifiers and the bias sums of the heads in one pass.
         let (b1, w2, b2) = (self.b1(), self.w2(), self.b2());
         let (d_b1, d_w2) = d_params[b1..b2].split_at_mut(w2 - b1);
