@@ -18,8 +18,11 @@
 //! depends only on the inputs.
 
 use super::lanes::LANES;
-use super::mlp::N_OUT;
 use evogs_math::Real;
+
+/// Outputs per row: velocity (3), world-frame angular velocity (3), log-scale rate (3), one
+/// head each.
+pub const N_OUT: usize = 9;
 
 /// Rows per tile: 32 rows of the paper MLP's heads (3W = 192) are 24 KiB of f32.
 pub(crate) const TILE: usize = 32;

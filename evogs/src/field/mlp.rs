@@ -18,8 +18,7 @@ use crate::aligned::CacheAligned;
 use evogs_math::Real;
 use evogs_math::rng::SplitMix64;
 
-/// Outputs per row: velocity (3), world-frame angular velocity (3), log-scale rate (3).
-pub const N_OUT: usize = 9;
+pub use super::heads::N_OUT;
 
 /// The MLP's sizes and its parameter offsets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
