@@ -148,7 +148,7 @@ pub struct NeuralField<T> {
     eval_budget: usize,
     /// The VJP's scratch, one per thread: a chunk takes the scratch of the thread that runs
     /// it, so the scratch stays in that core's caches from one chunk to the next (one per
-    /// chunk left every chunk's scratch cold: the products that write it ran 1.2–3× slower,
+    /// chunk left every chunk's scratch cold: the products that write it ran 1.15–2× slower,
     /// `docs/performance.md`). The lock is never contended (one thread, one slot); it is what
     /// lets a chunk reach its thread's slot without `unsafe`.
     work: Vec<Mutex<ChunkWork<T>>>,
