@@ -190,66 +190,42 @@ fn leave_one_out_block<T: Real, const W: usize>(
     }
 }
 
+/// The operands of [`decode_chunk_vjp`]: where the chunk's rows are (`rows` positions of
+/// `pos`, `stride` apart, at time `t`), the gradient of their features, the scratch of a
+/// level's six samples (at least `6·C`), and the outputs.
+pub(super) struct DecodeChunk<'a, T> {
+    pub(super) hex: &'a HexPlane,
+    pub(super) params: &'a [T],
+    pub(super) t: T,
+    pub(super) pos: &'a [T],
+    pub(super) stride: usize,
+    pub(super) rows: usize,
+    pub(super) d_features: &'a [T],
+    pub(super) samples: &'a mut [T],
+    /// The scatter records (plane-major within the chunk: record `(l·6 + q)·rows + r`).
+    pub(super) cells: &'a mut [CellRecord<T>],
+    /// The per-lookup sample gradients, C per record.
+    pub(super) dss: &'a mut [T],
+    /// The position gradients, 3 per row (written).
+    pub(super) d_pos: &'a mut [T],
+}
+
 /// From `d_features`, the per-lookup sample gradients and lookups (stored for the plane
-/// scatter, plane-major within the chunk: record `(l·6 + q)·rows + r`) and the position
-/// gradients (written into `d_pos`, 3 per row). The six samples of a level are recomputed
-/// into `samples` (scratch of at least `6·C`) from the texels the coordinate gradients read.
+/// scatter) and the position gradients. The six samples of a level are recomputed from the
+/// texels the coordinate gradients read.
 ///
 /// Compiled for the widest vector instructions the CPU has: [`pulp::Arch`] picks them at
 /// run time (AVX-512, AVX2, NEON or scalar; the unsafe part lives in pulp) and runs the
 /// body compiled with them. Its channel loops are plain loops and its lane sums fixed
 /// arrays, so every width computes the same bits. On the AVX-512 machine of
 /// `docs/performance.md` the field VJP took 3–5 % less than with the build's AVX2.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "a chunk's inputs, outputs and scratch"
-)]
-pub(super) fn decode_chunk_vjp<T: Gemm>(
-    hex: &HexPlane,
-    params: &[T],
-    t: T,
-    pos: &[T],
-    stride: usize,
-    rows: usize,
-    d_features: &[T],
-    samples: &mut [T],
-    cells: &mut [CellRecord<T>],
-    dss: &mut [T],
-    d_pos: &mut [T],
-) {
-    pulp::Arch::new().dispatch(Decode {
-        hex,
-        params,
-        t,
-        pos,
-        stride,
-        rows,
-        d_features,
-        samples,
-        cells,
-        dss,
-        d_pos,
-    });
-}
-
-/// The operands of [`decode_chunk_vjp`].
-struct Decode<'a, T> {
-    hex: &'a HexPlane,
-    params: &'a [T],
-    t: T,
-    pos: &'a [T],
-    stride: usize,
-    rows: usize,
-    d_features: &'a [T],
-    samples: &'a mut [T],
-    cells: &'a mut [CellRecord<T>],
-    dss: &'a mut [T],
-    d_pos: &'a mut [T],
+pub(super) fn decode_chunk_vjp<T: Gemm>(d: DecodeChunk<'_, T>) {
+    pulp::Arch::new().dispatch(d);
 }
 
 /// The body runs inside pulp's function for the chosen instructions, so it must be inlined
 /// there (a closure's body is not, and would keep the build's width).
-impl<T: Gemm> pulp::WithSimd for Decode<'_, T> {
+impl<T: Gemm> pulp::WithSimd for DecodeChunk<'_, T> {
     type Output = ();
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) {
@@ -259,8 +235,8 @@ impl<T: Gemm> pulp::WithSimd for Decode<'_, T> {
 
 /// The body of [`decode_chunk_vjp`].
 #[inline(always)]
-fn decode_rows<T: Gemm>(d: Decode<'_, T>) {
-    let Decode {
+fn decode_rows<T: Gemm>(d: DecodeChunk<'_, T>) {
+    let DecodeChunk {
         hex,
         params,
         t,
@@ -365,7 +341,7 @@ mod tests {
                 let mut cells = vec![CellRecord::default(); rows * n_lk];
                 let mut dss = vec![0.0; rows * n_lk * channels];
                 let mut d_pos = vec![0.0; rows * 3];
-                let d = Decode {
+                let d = DecodeChunk {
                     hex: &hex,
                     params: &params,
                     t: 0.3,
@@ -379,7 +355,7 @@ mod tests {
                     d_pos: &mut d_pos,
                 };
                 if dispatch {
-                    pulp::Arch::new().dispatch(d);
+                    decode_chunk_vjp(d);
                 } else {
                     decode_rows(d);
                 }

@@ -29,7 +29,9 @@
 //! parameter change is an error, never a silent wrong gradient. Both ways give bitwise the
 //! same results.
 
-use super::chunk::{CHUNK, ChunkRecord, ChunkWork, decode_chunk_vjp, forward_chunk, scatter_plane};
+use super::chunk::{
+    CHUNK, ChunkRecord, ChunkWork, DecodeChunk, decode_chunk_vjp, forward_chunk, scatter_plane,
+};
 use super::gemm::Gemm;
 use super::hexplane::{CellRecord, HexPlane, HexPlaneConfig, TimeMapping};
 use super::mlp::{Mlp, N_OUT};
@@ -411,19 +413,19 @@ impl<T: Gemm> NeuralField<T> {
                 c.partial,
                 profile,
             );
-            decode_chunk_vjp(
+            decode_chunk_vjp(DecodeChunk {
                 hex,
                 params,
                 t,
                 pos,
                 stride,
                 rows,
-                &work.d_features,
-                &mut work.samples,
-                c.cells,
-                c.d_samples,
-                c.d_pos,
-            );
+                d_features: &work.d_features,
+                samples: &mut work.samples,
+                cells: c.cells,
+                dss: c.d_samples,
+                d_pos: c.d_pos,
+            });
         };
         let records = rec.chunks(n_chunks);
         match self.par {
