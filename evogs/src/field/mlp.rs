@@ -282,7 +282,7 @@ impl Mlp {
         d_params[so..so + 3].copy_from_slice(&d_scales);
         d_params[b2..so].copy_from_slice(&d_b2);
         // The output layers, the rectifiers and the bias sums of the heads in one pass.
-        let (b1, w2, b2) = (self.b1(), self.w2(), self.b2());
+        let (b1, w2) = (self.b1(), self.w2());
         let (d_b1, d_w2) = d_params[b1..b2].split_at_mut(w2 - b1);
         heads_vjp(
             &mut HeadsVjp {
