@@ -62,9 +62,7 @@ impl<T: Clone> CacheAligned<T> {
             None => Self::default(),
         }
     }
-}
 
-impl<T: Clone> CacheAligned<T> {
     /// Resizes to `len` values like `Vec::resize` (the first values kept, new ones
     /// `value`), in a new aligned buffer when the length changes.
     pub fn resize(&mut self, len: usize, value: T) {
