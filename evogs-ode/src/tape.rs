@@ -9,9 +9,10 @@
 //! stage slopes, states and increments (the stepper's own buffers, exchanged with the
 //! tape's, not copied), and [`discrete_adjoint_recorded`] hands them back to the stepper in
 //! reverse order, step by step, by their position in the grid: nothing is looked up by
-//! value, and no stage of a kept step is formed again. The tape keeps the records of the **last** whole steps that fit its capacity (the
-//! caller's memory budget, in stage records): the reverse pass meets those first, and
-//! evaluates the earlier steps' stages again (into scratch records reused from step to step).
+//! value, and no stage of a kept step is formed again. The tape keeps the records of the
+//! **last** whole steps that fit its capacity (the caller's memory budget, in stage
+//! records): the reverse pass meets those first, and evaluates the earlier steps' stages
+//! again (into scratch records reused from step to step).
 //! Either way the gradient is bitwise the same as [`discrete_adjoint`](crate::discrete_adjoint)'s.
 
 use crate::stepper::{KeptStep, StageBuffers};
