@@ -148,15 +148,20 @@ impl<T: Real, R> StageValues<'_, T, R> {
         x: &[T],
         out: &mut [T],
     ) {
-        let n = out.len();
         match self {
             Self::Eval => field.eval(t, x, out),
-            Self::Record { outputs, records } => {
-                field.eval_recorded(t, x, out, &mut records[i]);
-                if let Some(o) = outputs {
-                    o[i * n..(i + 1) * n].copy_from_slice(out);
-                }
-            }
+            Self::Record { records, .. } => field.eval_recorded(t, x, out, &mut records[i]),
+        }
+    }
+
+    /// Stage `i`'s slot (`n` entries) of the kept field values, if they are kept. The stage
+    /// loop copies each value there (see [`Stepper::slope_from_value`]).
+    fn kept(&mut self, i: usize, n: usize) -> Option<&mut [T]> {
+        match self {
+            Self::Record {
+                outputs: Some(o), ..
+            } => Some(&mut o[i * n..(i + 1) * n]),
+            _ => None,
         }
     }
 }
@@ -405,7 +410,10 @@ impl<T: Real> Stepper<T> {
             if i == 0 {
                 match k0 {
                     Some(k0) => self.k[..n].copy_from_slice(k0),
-                    None => values.value(field, 0, ti, y, &mut self.k[..n]),
+                    None => {
+                        values.value(field, 0, ti, y, &mut self.k[..n]);
+                        self.slope_from_value(0, values.kept(0, n));
+                    }
                 }
             } else {
                 self.stage_point(i, h, y);
@@ -414,9 +422,44 @@ impl<T: Real> Stepper<T> {
                 if i + 1 == self.s && !self.fsal_f.is_empty() {
                     self.fsal_f.copy_from_slice(&self.k[i * n..(i + 1) * n]);
                 }
-                self.dexp_inv(i);
+                self.slope_from_value(i, values.kept(i, n));
             }
         }
+    }
+
+    /// Turns the field value in stage `i`'s slot of `k` into the stage's slope
+    /// ([`dexp_inv`](Self::dexp_inv); stage 0's is its value), first copying the value into `keep` when given, in the same pass
+    /// over the particles (one pass on the pool, not a serial copy and then a pass).
+    fn slope_from_value(&mut self, i: usize, keep: Option<&mut [T]>) {
+        let Some(keep) = keep else {
+            if i > 0 {
+                self.dexp_inv(i);
+            }
+            return;
+        };
+        let (n, pt) = (self.n, self.pat.pt);
+        let ki = &mut self.k[i * n..(i + 1) * n];
+        if i == 0 || self.euclidean {
+            // Kᵢ is the field value itself.
+            let ki = &*ki;
+            for_chunks1(self.par, self.count, keep, pt, |p0, np, kc| {
+                kc.copy_from_slice(&ki[p0 * pt..(p0 + np) * pt]);
+            });
+            return;
+        }
+        let (pat, omega) = (self.pat, &self.omega[i * n..(i + 1) * n]);
+        for_chunks2(
+            self.par,
+            self.count,
+            ki,
+            pt,
+            keep,
+            pt,
+            |p0, np, kc, keep| {
+                keep.copy_from_slice(kc);
+                dexp_inv_particles(pat, omega, p0, np, kc);
+            },
+        );
     }
 
     /// One [`step`](Self::step) that also keeps, per stage `i`, the field value in
@@ -607,24 +650,7 @@ impl<T: Real> Stepper<T> {
         let (pat, omega) = (*pat, &omega[i * *n..(i + 1) * *n]);
         let ki = &mut k[i * *n..(i + 1) * *n];
         for_chunks1(*par, *count, ki, pat.pt, |p0, np, kc| {
-            for p in 0..np {
-                let gt = (p0 + p) * pat.pt;
-                for sp in pat.spans() {
-                    let e = p * pat.pt + sp.tangent;
-                    match sp.block {
-                        Block::Euclidean(_) => {}
-                        Block::So3 => {
-                            let big = Vec3::from_slice(&omega[gt + sp.tangent..]);
-                            jl_inv_mul(big, Vec3::from_slice(&kc[e..])).write_to(&mut kc[e..]);
-                        }
-                        Block::Se3 => {
-                            let big = Vec6::from_slice(&omega[gt + sp.tangent..]);
-                            se3_jacobians::jl_inv_mul(big, Vec6::from_slice(&kc[e..]))
-                                .write_to(&mut kc[e..]);
-                        }
-                    }
-                }
-            }
+            dexp_inv_particles(pat, omega, p0, np, kc);
         });
     }
 
@@ -675,6 +701,29 @@ impl<T: Real> Stepper<T> {
                 }
             }
         });
+    }
+}
+
+/// `K ← Jl⁻¹(Ω)·K` on the SO(3) and SE(3) entries of particles `p0..p0 + np`, whose slopes
+/// are `kc` (the chunk's own) and whose increments are in `omega` (all particles).
+fn dexp_inv_particles<T: Real>(pat: Pattern, omega: &[T], p0: usize, np: usize, kc: &mut [T]) {
+    for p in 0..np {
+        let gt = (p0 + p) * pat.pt;
+        for sp in pat.spans() {
+            let e = p * pat.pt + sp.tangent;
+            match sp.block {
+                Block::Euclidean(_) => {}
+                Block::So3 => {
+                    let big = Vec3::from_slice(&omega[gt + sp.tangent..]);
+                    jl_inv_mul(big, Vec3::from_slice(&kc[e..])).write_to(&mut kc[e..]);
+                }
+                Block::Se3 => {
+                    let big = Vec6::from_slice(&omega[gt + sp.tangent..]);
+                    se3_jacobians::jl_inv_mul(big, Vec6::from_slice(&kc[e..]))
+                        .write_to(&mut kc[e..]);
+                }
+            }
+        }
     }
 }
 

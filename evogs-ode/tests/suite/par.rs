@@ -8,7 +8,8 @@ use common::{CoupledField, CoupledSe3Field, Loss, random_state};
 use evogs_math::{Par, Vec3};
 use evogs_ode::algebra::{ParticleFrame, RigidRotation};
 use evogs_ode::{
-    Checkpointing, Method, Stepper, TimeGrid, VectorField, discrete_adjoint, integrate_trajectory,
+    Checkpointing, Method, StageTape, Stepper, TimeGrid, VectorField, discrete_adjoint,
+    discrete_adjoint_recorded, integrate_recorded, integrate_trajectory,
 };
 
 /// Final state and gradients of one forward-and-adjoint run with the given parallelism.
@@ -47,6 +48,8 @@ fn rayon_and_sequential_steppers_agree_bitwise() {
         assert!(y_seq == y_par, "{m}: final states differ");
         assert!(dy_seq == dy_par, "{m}: state gradients differ");
         assert!(dth_seq == dth_par, "{m}: parameter gradients differ");
+        let recorded = run_recorded(&proto, m, Par::Rayon);
+        assert!(recorded == [y_seq, dy_seq, dth_seq], "{m}: recorded run");
     }
 }
 
@@ -65,11 +68,44 @@ fn rayon_and_sequential_steppers_agree_bitwise_on_points() {
     assert_seq_and_rayon_agree(&proto, "results on points");
 }
 
-/// [`run`] gives bitwise the same results with `Par::Seq` and `Par::Rayon` for each method.
+/// [`run`] through a stage tape that keeps every step ([`integrate_recorded`]: the field
+/// values of the stages are copied into the tape in the stages' parallel passes).
+fn run_recorded<F: VectorField<f64> + Clone>(proto: &F, m: Method, par: Par) -> [Vec<f64>; 3] {
+    let layout = proto.layout();
+    let y0 = random_state(&layout, 62);
+    let loss = Loss::new(layout, 63);
+    let grid = TimeGrid::uniform(0.0, 0.8, 6);
+    let mut field = proto.clone();
+    let mut st = Stepper::new(m, layout).with_par(par);
+    let mut tape = StageTape::new(6 * m.stages());
+    let traj = integrate_recorded(&mut field, &mut st, &grid, &y0, &mut tape);
+    assert_eq!(tape.kept_stages(), 6 * m.stages(), "{m}: every step kept");
+    let mut d_y0 = vec![0.0; layout.tangent_len()];
+    let mut d_th = vec![0.0; field.n_params()];
+    discrete_adjoint_recorded(
+        &mut field,
+        &mut st,
+        &traj,
+        &mut tape,
+        &loss.gradient(traj.final_state()),
+        &mut d_y0,
+        &mut d_th,
+    );
+    [traj.final_state().to_vec(), d_y0, d_th]
+}
+
+/// [`run`] and [`run_recorded`] give bitwise the same results with `Par::Seq` and
+/// `Par::Rayon` for each method.
 fn assert_seq_and_rayon_agree<F: VectorField<f64> + Clone>(proto: &F, what: &str) {
     for m in [Method::Euler, Method::Rk4, Method::Rk38] {
         let seq = run(proto, m, Par::Seq);
         let par = run(proto, m, Par::Rayon);
         assert!(seq == par, "{m}: {what} differ between Seq and Rayon");
+        let recorded = run_recorded(proto, m, Par::Rayon);
+        assert!(recorded == seq, "{m}: recorded {what} differ");
+        assert!(
+            run_recorded(proto, m, Par::Seq) == seq,
+            "{m}: recorded {what}, Seq"
+        );
     }
 }
