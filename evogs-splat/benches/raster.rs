@@ -141,7 +141,7 @@ fn bench(c: &mut Criterion) {
         let mut grad = splats.zeros_like();
         g.bench_function(format!("vjp_{name}"), |b| {
             b.iter(|| {
-                grad.fill_zero();
+                grad.fill_zero(opts.par);
                 black_box(preprocess_vjp(&splats, &cam, &opts, &pre, &d, &mut grad))
             });
         });

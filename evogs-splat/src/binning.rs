@@ -30,11 +30,18 @@
 //! During the scatter each Gaussian also records the positions of its own entries, in tile
 //! order (a CSR array), so the backward reduction per Gaussian needs no search.
 //!
+//! On the pool the sort runs in chunks of consecutive Gaussians: each chunk counts its
+//! entries per tile and sorts them by tile on its own; a short serial pass over (tile,
+//! chunk) gives every chunk its first slot in every tile's list; then each tile's list is
+//! chunk 0's part, chunk 1's, … ([`Binning::bin`]). Within a tile that is the order of the
+//! Gaussians again, so the lists are the ones of the plain sort, whatever the split.
+//!
 //! All buffers are reused between calls; they only grow.
 
+use crate::pool::for_each_item;
 use crate::preprocess::Preprocessed;
 use alloc::vec::Vec;
-use evogs_math::{Real, Vec2};
+use evogs_math::{Par, Real, Vec2};
 
 /// Tile side in pixels.
 pub const TILE_SIZE: usize = 16;
@@ -164,11 +171,12 @@ impl TileGrid {
 /// Gaussian index is `order[k]`).
 ///
 /// ```
+/// use evogs_math::Par;
 /// use evogs_splat::{benchmark_scene, preprocess, Binning, RenderOptions};
 /// let (splats, cam) = benchmark_scene::<f32>(300, 40, 1);
 /// let pre = preprocess(&splats, &cam, &RenderOptions::default());
 /// let mut bins = Binning::default();
-/// bins.bin(&pre);
+/// bins.bin(&pre, Par::best());
 /// assert_eq!(bins.grid().n_tiles(), 9);
 /// for t in 0..9 {
 ///     // Each tile's list is in compositing order.
@@ -188,68 +196,206 @@ pub struct Binning {
     splat_offsets: Vec<u32>,
     /// Entry indices of every Gaussian, in tile order.
     splat_entries: Vec<u32>,
-    /// Scatter cursors (scratch).
-    cursor: Vec<u32>,
+    /// Scratch of the parallel sort, per chunk of order positions and tile (`n_tiles`
+    /// values per chunk): the chunk's entries in the tile ...
+    counts: Vec<u32>,
+    /// ... the cursor into the chunk's own tile-sorted list (`by_chunk`) ...
+    local: Vec<u32>,
+    /// ... and the cursor into the final list (`entries`).
+    global: Vec<u32>,
+    /// Each chunk's entries sorted by tile, chunk after chunk.
+    by_chunk: Vec<u32>,
+}
+
+/// One chunk of consecutive order positions in the parallel binning: its slices of the
+/// per-Gaussian arrays and of the per-(chunk, tile) scratch.
+struct BinChunk<'a> {
+    /// First order position.
+    first: usize,
+    /// First entry of the chunk's Gaussians (in `splat_entries` and `by_chunk`).
+    base: usize,
+    rects: &'a mut [Rect],
+    /// `splat_offsets[first + 1..]` of the chunk: running entry totals.
+    ends: &'a mut [u32],
+    counts: &'a mut [u32],
+    local: &'a mut [u32],
+    global: &'a mut [u32],
+    splat_entries: &'a mut [u32],
+    by_chunk: &'a mut [u32],
 }
 
 impl Binning {
-    /// Bins the valid Gaussians of `pre` (in `pre.order`) into the tiles of its image.
+    /// Bins the valid Gaussians of `pre` (in `pre.order`) into the tiles of its image; with
+    /// `par`, in chunks of Gaussians and bands of tiles on the pool. The result is the one
+    /// stable counting sort, whatever the chunks and the threads:
+    ///
+    /// ```text
+    /// per chunk of order positions (in parallel):   tile rectangles, entries per tile
+    /// serial, per tile and chunk (n_tiles × chunks): tile offsets, each chunk's first slot
+    ///                                                 in each tile's list
+    /// per chunk (in parallel):  its entries sorted by tile (a local counting sort), and each
+    ///                           Gaussian's entry indices in the final list
+    /// per tile row (in parallel): each tile's list = its part of chunk 0, of chunk 1, …
+    /// ```
     ///
     /// # Panics
     /// If there are `u32::MAX` entries or more.
-    pub fn bin<T: Real>(&mut self, pre: &Preprocessed<T>) {
+    pub fn bin<T: Real>(&mut self, pre: &Preprocessed<T>, par: Par) {
+        // The chunks only split the work: every split gives the same lists, so their number
+        // follows the pool (one chunk, the plain counting sort, on one thread).
+        let n = pre.order.len();
+        let chunk = match threads(par) {
+            1 => n.max(1),
+            th => n.div_ceil(2 * th).max(MIN_CHUNK),
+        };
+        self.bin_in_chunks(pre, par, chunk);
+    }
+
+    /// [`bin`](Self::bin) in chunks of `chunk` order positions.
+    fn bin_in_chunks<T: Real>(&mut self, pre: &Preprocessed<T>, par: Par, chunk: usize) {
         let grid = TileGrid::new(pre.width, pre.height);
         self.grid = grid;
         let n_tiles = grid.n_tiles();
-        self.rects.clear();
-        self.rects.extend(
-            pre.order
-                .iter()
-                .map(|&g| grid.tile_rect(pre.means2d[g as usize], pre.radii[g as usize])),
-        );
+        // Scratch values per chunk (one even without tiles, so that every chunk has a slice).
+        let stride = n_tiles.max(1);
+        let n = pre.order.len();
+        let chunk = chunk.max(1);
+        let n_chunks = n.div_ceil(chunk);
+        self.rects.resize(n, Rect::default());
+        self.splat_offsets.resize(n + 1, 0);
+        self.splat_offsets[0] = 0;
+        for v in [&mut self.counts, &mut self.local, &mut self.global] {
+            v.clear();
+            v.resize(n_chunks * stride, 0);
+        }
 
-        // Count per tile and per Gaussian.
+        // 1. Rectangles, the chunk's entries per tile and its running totals.
+        let mut chunks = chunk_items(
+            chunk,
+            stride,
+            &mut self.rects,
+            &mut self.splat_offsets[1..],
+            &mut self.counts,
+            &mut self.local,
+            &mut self.global,
+        );
+        for_each_item(par, &mut chunks, |_, c| {
+            let order = &pre.order[c.first..c.first + c.rects.len()];
+            let mut total = 0_usize;
+            for ((r, end), &g) in c.rects.iter_mut().zip(c.ends.iter_mut()).zip(order) {
+                let g = g as usize;
+                *r = grid.tile_rect(pre.means2d[g], pre.radii[g]);
+                for ty in r.y0..r.y1 {
+                    for tx in r.x0..r.x1 {
+                        c.counts[ty as usize * grid.tiles_x + tx as usize] += 1;
+                    }
+                }
+                total += r.area();
+                *end = u32::try_from(total).expect("too many tile entries");
+            }
+        });
+        drop(chunks);
+
+        // 2. Serial, over tiles and chunks: the tile offsets, and where each chunk's entries
+        //    start in each tile's list (global) and in its own tile-sorted list (local).
         self.tile_offsets.clear();
         self.tile_offsets.resize(n_tiles + 1, 0);
-        self.splat_offsets.clear();
-        self.splat_offsets.reserve(self.rects.len() + 1);
-        self.splat_offsets.push(0);
         let mut total = 0_usize;
-        for r in &self.rects {
-            for ty in r.y0..r.y1 {
-                for tx in r.x0..r.x1 {
-                    self.tile_offsets[ty as usize * grid.tiles_x + tx as usize + 1] += 1;
-                }
-            }
-            total += r.area();
-            assert!(u32::try_from(total).is_ok(), "too many tile entries");
-            self.splat_offsets
-                .push(u32::try_from(total).unwrap_or(u32::MAX));
-        }
-        // Exclusive prefix sum.
         for t in 0..n_tiles {
-            self.tile_offsets[t + 1] += self.tile_offsets[t];
+            let tile_start = total;
+            for c in 0..n_chunks {
+                let i = c * stride + t;
+                self.global[i] = u32::try_from(total).expect("too many tile entries");
+                total += self.counts[i] as usize;
+            }
+            self.tile_offsets[t] = u32::try_from(tile_start).expect("too many tile entries");
         }
-
-        // Stable scatter, front to back.
-        self.cursor.clear();
-        self.cursor.extend_from_slice(&self.tile_offsets[..n_tiles]);
-        self.entries.clear();
-        self.entries.resize(total, 0);
-        self.splat_entries.clear();
-        self.splat_entries.resize(total, 0);
-        let mut j = 0;
-        for (k, r) in (0_u32..).zip(&self.rects) {
-            for ty in r.y0..r.y1 {
-                for tx in r.x0..r.x1 {
-                    let c = &mut self.cursor[ty as usize * grid.tiles_x + tx as usize];
-                    self.entries[*c as usize] = k;
-                    self.splat_entries[j] = *c;
-                    *c += 1;
-                    j += 1;
-                }
+        self.tile_offsets[n_tiles] = u32::try_from(total).expect("too many tile entries");
+        for c in 0..n_chunks {
+            let mut run = 0;
+            for t in 0..n_tiles {
+                let i = c * stride + t;
+                self.local[i] = run;
+                run += self.counts[i];
             }
         }
+        self.entries.resize(total, 0);
+        self.splat_entries.resize(total, 0);
+        self.by_chunk.resize(total, 0);
+
+        // 3. Per chunk: the entries sorted by tile, and every Gaussian's entry indices.
+        let mut chunks = chunk_items(
+            chunk,
+            stride,
+            &mut self.rects,
+            &mut self.splat_offsets[1..],
+            &mut self.counts,
+            &mut self.local,
+            &mut self.global,
+        );
+        let mut tail_entries = &mut self.splat_entries[..];
+        let mut tail_by_chunk = &mut self.by_chunk[..];
+        let mut base = 0;
+        for c in &mut chunks {
+            let len = c.ends.last().map_or(0, |&e| e as usize);
+            let (mine, rest) = tail_entries.split_at_mut(len);
+            c.splat_entries = mine;
+            tail_entries = rest;
+            let (mine, rest) = tail_by_chunk.split_at_mut(len);
+            c.by_chunk = mine;
+            tail_by_chunk = rest;
+            c.base = base;
+            base += len;
+        }
+        for_each_item(par, &mut chunks, |_, c| {
+            let base = u32::try_from(c.base).expect("too many tile entries");
+            let mut e = 0;
+            for (j, (r, end)) in c.rects.iter().zip(c.ends.iter_mut()).enumerate() {
+                let k = u32::try_from(c.first + j).expect("too many Gaussians");
+                for ty in r.y0..r.y1 {
+                    for tx in r.x0..r.x1 {
+                        let t = ty as usize * grid.tiles_x + tx as usize;
+                        c.by_chunk[c.local[t] as usize] = k;
+                        c.local[t] += 1;
+                        c.splat_entries[e] = c.global[t];
+                        c.global[t] += 1;
+                        e += 1;
+                    }
+                }
+                *end += base;
+            }
+        });
+        drop(chunks);
+
+        // 4. Per tile row: each tile's list, chunk by chunk (one chunk: already in place).
+        if n_chunks <= 1 {
+            core::mem::swap(&mut self.entries, &mut self.by_chunk);
+            return;
+        }
+        let row = grid.tiles_x;
+        let mut rows: Vec<&mut [u32]> = Vec::with_capacity(grid.tiles_y);
+        let mut tail = &mut self.entries[..];
+        for ty in 0..grid.tiles_y {
+            let range =
+                self.tile_offsets[ty * row] as usize..self.tile_offsets[(ty + 1) * row] as usize;
+            let (mine, rest) = tail.split_at_mut(range.len());
+            rows.push(mine);
+            tail = rest;
+        }
+        let (counts, local, by_chunk) = (&self.counts, &self.local, &self.by_chunk);
+        let chunk_base = |c: usize| self.splat_offsets[c * chunk] as usize;
+        for_each_item(par, &mut rows, |ty, out| {
+            let mut at = 0;
+            for t in ty * row..(ty + 1) * row {
+                for c in 0..n_chunks {
+                    let i = c * stride + t;
+                    let (count, end) = (counts[i] as usize, local[i] as usize);
+                    let from = chunk_base(c) + end - count;
+                    out[at..at + count].copy_from_slice(&by_chunk[from..from + count]);
+                    at += count;
+                }
+            }
+        });
     }
 
     /// The tile grid of the last binned image.
@@ -294,6 +440,52 @@ impl Binning {
     }
 }
 
+/// Order positions per chunk of the parallel binning, at least.
+const MIN_CHUNK: usize = 1024;
+
+/// The threads that `par` runs on.
+fn threads(par: Par) -> usize {
+    #[cfg(feature = "rayon")]
+    if matches!(par, Par::Rayon) {
+        return rayon::current_num_threads();
+    }
+    let _ = par;
+    1
+}
+
+/// The chunks of `chunk` order positions (the last one shorter) over the per-Gaussian arrays
+/// and the per-(chunk, tile) scratch (`stride` values per chunk); `base`, `splat_entries` and `by_chunk` are set by the
+/// caller once the chunks' entry counts are known.
+fn chunk_items<'a>(
+    chunk: usize,
+    stride: usize,
+    rects: &'a mut [Rect],
+    ends: &'a mut [u32],
+    counts: &'a mut [u32],
+    local: &'a mut [u32],
+    global: &'a mut [u32],
+) -> Vec<BinChunk<'a>> {
+    rects
+        .chunks_mut(chunk)
+        .zip(ends.chunks_mut(chunk))
+        .zip(counts.chunks_mut(stride))
+        .zip(local.chunks_mut(stride))
+        .zip(global.chunks_mut(stride))
+        .enumerate()
+        .map(|(c, ((((rects, ends), counts), local), global))| BinChunk {
+            first: c * chunk,
+            base: 0,
+            rects,
+            ends,
+            counts,
+            local,
+            global,
+            splat_entries: &mut [],
+            by_chunk: &mut [],
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -312,6 +504,59 @@ mod tests {
             .collect();
         assert_eq!(inside, [(2, 5), (3, 5)]);
         assert_eq!(inside.len(), r.area());
+    }
+
+    #[test]
+    fn every_split_into_chunks_bins_like_one_chunk() {
+        // The parallel counting sort (chunks of order positions, then tile rows) against the
+        // plain one (one chunk, sequential): the same lists, offsets and entry indices, for
+        // chunks of one Gaussian up to all of them, sequential and on the pool, on images
+        // with partial edge tiles, one tile, and no pixels.
+        let opts = crate::RenderOptions::default();
+        for (n, size, seed) in [
+            (3000, 70, 1),
+            (500, 37, 2),
+            (40, 16, 3),
+            (300, 9, 4),
+            (20, 0, 5),
+        ] {
+            let (splats, cam) = crate::benchmark_scene::<f32>(n, size.max(1), seed);
+            let mut pre = crate::preprocess(&splats, &cam, &opts);
+            if size == 0 {
+                pre.width = 0;
+            }
+            let mut plain = Binning::default();
+            plain.bin_in_chunks(&pre, Par::Seq, usize::MAX);
+            let fields = |b: &Binning| {
+                (
+                    b.grid,
+                    b.rects.clone(),
+                    b.tile_offsets.clone(),
+                    b.entries.clone(),
+                    b.splat_offsets.clone(),
+                    b.splat_entries.clone(),
+                )
+            };
+            let want = fields(&plain);
+            // Gaussians over several tiles where there are several.
+            assert!(
+                size <= 16 || plain.n_entries() > pre.order.len(),
+                "{n}: few entries"
+            );
+            // One binning reused across the splits, as a rasterizer reuses its own.
+            let mut bins = Binning::default();
+            for chunk in [1, 7, 64, 999, n / 2 + 1, n] {
+                for par in [Par::Seq, Par::best()] {
+                    bins.bin_in_chunks(&pre, par, chunk);
+                    assert!(
+                        fields(&bins) == want,
+                        "{n} Gaussians, chunks of {chunk}, {par:?}"
+                    );
+                }
+            }
+            bins.bin(&pre, Par::best());
+            assert!(fields(&bins) == want, "{n} Gaussians, bin");
+        }
     }
 
     #[test]

@@ -14,12 +14,13 @@
 //! ```
 
 use crate::camera::PinholeCamera;
+use crate::pool::for_each_item;
 use alloc::vec;
 use alloc::vec::Vec;
 use evogs_math::activation::logit;
 use evogs_math::rng::SplitMix64;
 use evogs_math::sh::{MAX_SH_DEGREE, SH_C0, sh_coeff_count};
-use evogs_math::{Quat, Real, Vec3};
+use evogs_math::{Par, Quat, Real, Vec3};
 
 /// A set of Gaussians as struct of arrays, in their raw training parameterisation.
 ///
@@ -77,6 +78,20 @@ impl<T: Clone> Clone for Splats<T> {
     }
 }
 
+/// Gaussians per work item of [`Splats::fill_zero`] and [`Splats::copy_from`] on the pool: a
+/// fixed number, so the work splits the same way on any thread count.
+const RUN: usize = 2048;
+
+/// One run of consecutive Gaussians: its first index and its slices of every field.
+struct RunMut<'a, T> {
+    first: usize,
+    means: &'a mut [Vec3<T>],
+    log_scales: &'a mut [Vec3<T>],
+    quats: &'a mut [Quat<T>],
+    opacity_logits: &'a mut [T],
+    sh: &'a mut [[T; 3]],
+}
+
 /// Gradient of a loss with respect to every field of [`Splats`] (same layout).
 pub type SplatsGrad<T> = Splats<T>;
 
@@ -117,13 +132,84 @@ impl<T: Real> Splats<T> {
         Self::zeros(self.len(), self.sh_degree)
     }
 
-    /// Sets every entry to zero, keeping the length.
-    pub fn fill_zero(&mut self) {
-        self.means.fill(Vec3::zero());
-        self.log_scales.fill(Vec3::zero());
-        self.quats.fill(Quat::zero());
-        self.opacity_logits.fill(T::ZERO);
-        self.sh.fill([T::ZERO; 3]);
+    /// Sets every entry to zero, keeping the length; with `par`, in runs of Gaussians on the
+    /// pool (a gradient of a scene is megabytes of zeros).
+    pub fn fill_zero(&mut self, par: Par) {
+        if !self.check() {
+            // Fields of different lengths do not split into runs: each is zeroed whole.
+            self.means.fill(Vec3::zero());
+            self.log_scales.fill(Vec3::zero());
+            self.quats.fill(Quat::zero());
+            self.opacity_logits.fill(T::ZERO);
+            self.sh.fill([T::ZERO; 3]);
+            return;
+        }
+        for_each_item(par, &mut self.runs_mut(), |_, r| {
+            r.means.fill(Vec3::zero());
+            r.log_scales.fill(Vec3::zero());
+            r.quats.fill(Quat::zero());
+            r.opacity_logits.fill(T::ZERO);
+            r.sh.fill([T::ZERO; 3]);
+        });
+    }
+
+    /// Makes `self` a copy of `source` in the buffers it has (like
+    /// [`clone_from`](Clone::clone_from)), with `par` in runs of Gaussians on the pool.
+    ///
+    /// # Panics
+    /// If `source` is inconsistent ([`check`](Self::check)).
+    ///
+    /// ```
+    /// use evogs_math::Par;
+    /// use evogs_splat::{benchmark_scene, Splats};
+    /// let (source, _) = benchmark_scene::<f32>(5000, 8, 1);
+    /// let mut copy = Splats::new(0);
+    /// copy.copy_from(&source, Par::best());
+    /// assert_eq!(copy, source);
+    /// ```
+    pub fn copy_from(&mut self, source: &Self, par: Par) {
+        assert!(source.check(), "copy_from: inconsistent Gaussians");
+        let n = source.len();
+        self.sh_degree = source.sh_degree;
+        self.means.resize(n, Vec3::zero());
+        self.log_scales.resize(n, Vec3::zero());
+        self.quats.resize(n, Quat::zero());
+        self.opacity_logits.resize(n, T::ZERO);
+        self.sh.resize(source.sh.len(), [T::ZERO; 3]);
+        let k = source.coeffs_per_gaussian();
+        for_each_item(par, &mut self.runs_mut(), |_, r| {
+            let range = r.first..r.first + r.means.len();
+            r.means.copy_from_slice(&source.means[range.clone()]);
+            r.log_scales
+                .copy_from_slice(&source.log_scales[range.clone()]);
+            r.quats.copy_from_slice(&source.quats[range.clone()]);
+            r.opacity_logits
+                .copy_from_slice(&source.opacity_logits[range.clone()]);
+            r.sh.copy_from_slice(&source.sh[range.start * k..range.end * k]);
+        });
+    }
+
+    /// The runs of [`RUN`] consecutive Gaussians (the last one shorter) of a consistent set.
+    fn runs_mut(&mut self) -> Vec<RunMut<'_, T>> {
+        let k = self.coeffs_per_gaussian();
+        self.means
+            .chunks_mut(RUN)
+            .zip(self.log_scales.chunks_mut(RUN))
+            .zip(self.quats.chunks_mut(RUN))
+            .zip(self.opacity_logits.chunks_mut(RUN))
+            .zip(self.sh.chunks_mut(RUN * k))
+            .enumerate()
+            .map(
+                |(r, ((((means, log_scales), quats), opacity_logits), sh))| RunMut {
+                    first: r * RUN,
+                    means,
+                    log_scales,
+                    quats,
+                    opacity_logits,
+                    sh,
+                },
+            )
+            .collect()
     }
 
     /// Number of Gaussians.
@@ -371,9 +457,43 @@ mod tests {
 
     #[test]
     fn fill_zero_zeroes_every_entry_and_keeps_the_length() {
-        let (mut s, _) = benchmark_scene::<f64>(3, 8, 1);
-        s.fill_zero();
-        assert_eq!(s, Splats::zeros(3, 3));
+        for (n, par) in [(3, Par::Seq), (3, Par::best()), (2 * RUN + 5, Par::best())] {
+            let (mut s, _) = benchmark_scene::<f64>(n, 8, 1);
+            s.fill_zero(par);
+            assert_eq!(s, Splats::zeros(n, 3), "{n} Gaussians, {par:?}");
+        }
+        // An inconsistent set (one SH triple short) is zeroed field by field.
+        let (mut bad, _) = benchmark_scene::<f64>(4, 8, 1);
+        bad.sh.pop();
+        bad.fill_zero(Par::best());
+        let mut want = Splats::zeros(4, 3);
+        want.sh.pop();
+        assert_eq!(bad, want, "an inconsistent set too");
+    }
+
+    #[test]
+    fn copy_from_is_clone_from_on_any_thread_count() {
+        // Sizes across runs, growing, shrinking, and another SH degree.
+        let mut copy = Splats::<f64>::new(0);
+        for (n, degree) in [(2 * RUN + 5, 3), (7, 3), (RUN, 1), (0, 2), (3 * RUN - 1, 3)] {
+            let (s, _) = benchmark_scene::<f64>(n, 8, 1);
+            let mut source = Splats::new(degree);
+            for i in 0..n {
+                let k = sh_coeff_count(degree);
+                let sh = &s.sh_coeffs(i)[..k];
+                source.push(
+                    s.means[i],
+                    s.log_scales[i],
+                    s.quats[i],
+                    s.opacity_logits[i],
+                    sh,
+                );
+            }
+            for par in [Par::Seq, Par::best()] {
+                copy.copy_from(&source, par);
+                assert_eq!(copy, source, "{n} Gaussians of degree {degree}, {par:?}");
+            }
+        }
     }
 
     #[test]

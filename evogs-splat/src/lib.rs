@@ -16,6 +16,7 @@ mod gaussians;
 mod image;
 pub mod loss;
 pub mod metrics;
+mod pool;
 pub mod preprocess;
 pub mod project;
 pub mod project_vjp;

@@ -28,6 +28,7 @@
 use crate::camera::{CameraGrad, PinholeCamera};
 use crate::color::{sh_color, sh_color_vjp};
 use crate::gaussians::{Splats, SplatsGrad};
+use crate::pool::run_items;
 use crate::project::{ProjectOptions, RadiusMode, project};
 use crate::project_vjp::{ProjectedGrad, project_vjp};
 use alloc::vec;
@@ -177,22 +178,6 @@ impl<T: Real> RasterInputGrad<T> {
     pub fn is_empty(&self) -> bool {
         self.means2d.is_empty()
     }
-}
-
-/// Runs `f` on every work item, in parallel with `Par::Rayon`, collecting the results in
-/// item order.
-pub(crate) fn run_items<S: Send, R: Send>(
-    par: Par,
-    items: &mut [S],
-    f: impl Fn(&mut S) -> R + Sync + Send,
-) -> Vec<R> {
-    #[cfg(feature = "rayon")]
-    if matches!(par, Par::Rayon) {
-        use rayon::prelude::*;
-        return items.par_iter_mut().map(f).collect();
-    }
-    let _ = par;
-    items.iter_mut().map(f).collect()
 }
 
 /// One chunk of the preprocessing output.
@@ -363,6 +348,29 @@ pub fn preprocess_vjp<T: Real>(
     d: &RasterInputGrad<T>,
     grad: &mut SplatsGrad<T>,
 ) -> CameraGrad<T> {
+    preprocess_vjp_with(splats, camera, opts, pre, d, grad, GradInit::Add)
+}
+
+/// What [`preprocess_vjp_with`] does with the gradient it is given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum GradInit {
+    /// Adds into it.
+    Add,
+    /// Overwrites it: each chunk of Gaussians is zeroed just before its terms are added (on
+    /// the chunk's thread, while the lines are in its cache), culled Gaussians included.
+    Overwrite,
+}
+
+/// [`preprocess_vjp`], adding into `grad` or overwriting it.
+pub(crate) fn preprocess_vjp_with<T: Real>(
+    splats: &Splats<T>,
+    camera: &PinholeCamera<T>,
+    opts: &RenderOptions<T>,
+    pre: &Preprocessed<T>,
+    d: &RasterInputGrad<T>,
+    grad: &mut SplatsGrad<T>,
+    init: GradInit,
+) -> CameraGrad<T> {
     let n = splats.len();
     assert!(
         pre.valid.len() == n && d.len() == n && grad.len() == n && grad.check(),
@@ -394,6 +402,13 @@ pub fn preprocess_vjp<T: Real>(
         )
         .collect();
     let partial = run_items(opts.par, &mut chunks, |c| {
+        if init == GradInit::Overwrite {
+            c.means.fill(Vec3::zero());
+            c.log_scales.fill(Vec3::zero());
+            c.quats.fill(Quat::zero());
+            c.opacity_logits.fill(T::ZERO);
+            c.sh.fill([T::ZERO; 3]);
+        }
         let mut cam = CameraGrad::zero();
         let mut d_center = Vec3::zero();
         for j in 0..c.means.len() {

@@ -11,9 +11,11 @@
 //!
 //! ```text
 //! 1. pack    the valid Gaussians in compositing order (Preprocessed::order): mean, conic,
-//!            opacity, σ cutoff, colour, depth and the pixel box of its radii
+//!            opacity, σ cutoff, colour, depth and the pixel box of its radii (chunks of
+//!            Gaussians on the pool)
 //! 2. bin     counting sort of the (tile, Gaussian) pairs by tile, stable, so every tile's
-//!            list is in depth order (crate::binning)
+//!            list is in depth order (crate::binning; chunks of Gaussians, then rows of
+//!            tiles, on the pool)
 //! 3. tiles   independently (rayon over tiles with Par::Rayon, work stealing):
 //!            for each Gaussian of the tile's list, front to back
 //!              for each 4×4 group of the tile inside the Gaussian's pixel box, not finished
@@ -37,17 +39,21 @@
 //! All work memory lives in the [`TiledRasterizer`] and only grows; nothing is allocated per
 //! tile, per Gaussian or per pixel.
 
-use crate::binning::{Binning, TILE_SIZE, TileGrid};
+use crate::binning::{Binning, Rect, TILE_SIZE, TileGrid};
 pub use crate::fast_exp::ExpMode;
 use crate::image::Image;
+use crate::pool::{for_each_item, run_items};
 use crate::preprocess::Preprocessed;
 use crate::raster_ref::{DEPTH_DENOM_MIN, RasterOutput, T_STOP, sigma_cutoff};
 use crate::tile_lanes::{
-    GROUPS, GROUPS_X, LANES, SEGMENT, TileLanes, TileSplat, eval_lane, for_each_item, group_lane,
-    group_sigma, lane_centres, mask, select, to_index,
+    GROUPS, GROUPS_X, LANES, SEGMENT, TileLanes, TileSplat, eval_lane, group_lane, group_sigma,
+    lane_centres, mask, select, to_index,
 };
 use alloc::vec::Vec;
-use evogs_math::{Par, Real};
+use evogs_math::{Par, Real, Vec2};
+
+/// Order positions per work item of the packing.
+const PACK_CHUNK: usize = 2048;
 
 /// Scalars of one entry's partial gradient: 2D mean (2), conic (3), colour (3), opacity,
 /// depth.
@@ -153,57 +159,88 @@ impl<T: Real> TiledRasterizer<T> {
         &self.bins
     }
 
-    /// Packs the valid Gaussians of `pre` in compositing order into `out`.
-    fn pack(pre: &Preprocessed<T>, out: &mut Vec<TileSplat<T>>) {
+    /// Packs the valid Gaussians of `pre` in compositing order into `out` (resized), in
+    /// chunks of [`PACK_CHUNK`] on the pool with `par`, and returns whether
+    /// `check(first, chunk)` holds for every packed chunk (`first`: its first order position).
+    fn pack(
+        pre: &Preprocessed<T>,
+        out: &mut Vec<TileSplat<T>>,
+        par: Par,
+        check: impl Fn(usize, &[TileSplat<T>]) -> bool + Sync + Send,
+    ) -> bool {
         let grid = TileGrid::new(pre.width, pre.height);
-        out.clear();
-        out.extend(pre.order.iter().map(|&g| {
-            let g = g as usize;
-            TileSplat {
-                mean: pre.means2d[g],
-                conic: pre.conics[g],
-                opacity: pre.opacities[g],
-                cut: sigma_cutoff(pre.opacities[g]),
-                color: pre.colors[g],
-                depth: pre.depths[g],
-                pixels: grid.pixel_rect(pre.means2d[g], pre.radii[g]),
-                radii: pre.radii[g],
+        let blank = TileSplat {
+            mean: Vec2::zero(),
+            conic: [T::ZERO; 3],
+            opacity: T::ZERO,
+            cut: T::ZERO,
+            color: [T::ZERO; 3],
+            depth: T::ZERO,
+            pixels: Rect::default(),
+            radii: [0; 2],
+        };
+        out.resize(pre.order.len(), blank);
+        let mut chunks: Vec<(usize, &mut [TileSplat<T>])> = out
+            .chunks_mut(PACK_CHUNK)
+            .enumerate()
+            .map(|(c, chunk)| (c * PACK_CHUNK, chunk))
+            .collect();
+        let checks = run_items(par, &mut chunks, |(first, chunk)| {
+            for (s, &g) in chunk.iter_mut().zip(&pre.order[*first..]) {
+                let g = g as usize;
+                *s = TileSplat {
+                    mean: pre.means2d[g],
+                    conic: pre.conics[g],
+                    opacity: pre.opacities[g],
+                    cut: sigma_cutoff(pre.opacities[g]),
+                    color: pre.colors[g],
+                    depth: pre.depths[g],
+                    pixels: grid.pixel_rect(pre.means2d[g], pre.radii[g]),
+                    radii: pre.radii[g],
+                };
             }
-        }));
+            check(*first, chunk)
+        });
+        checks.into_iter().all(|ok| ok)
     }
 
     /// Packs and bins the valid Gaussians of `pre`.
-    pub(crate) fn prepare(&mut self, pre: &Preprocessed<T>) {
-        Self::pack(pre, &mut self.splats);
+    pub(crate) fn prepare(&mut self, pre: &Preprocessed<T>, par: Par) {
+        Self::pack(pre, &mut self.splats, par, |_, _| true);
         self.rank.clear();
         self.rank.resize(pre.means2d.len(), u32::MAX);
         for (k, &g) in (0_u32..).zip(&pre.order) {
             self.rank[g as usize] = k;
         }
-        self.bins.bin(pre);
+        self.bins.bin(pre, par);
     }
 
     /// [`prepare`](Self::prepare), skipping the binning when `pre` packs to exactly what the
     /// last call binned (same image size, order, means, radii, …: then the binning would be
     /// the same). The backward uses it after the forward of the same `pre`.
-    pub(crate) fn prepare_cached(&mut self, pre: &Preprocessed<T>) {
+    pub(crate) fn prepare_cached(&mut self, pre: &Preprocessed<T>, par: Par) {
         let mut packed = core::mem::take(&mut self.scratch);
-        Self::pack(pre, &mut packed);
-        let same = self.bins.grid() == TileGrid::new(pre.width, pre.height)
-            && self.rank.len() == pre.means2d.len()
-            && packed == self.splats
-            && pre
-                .order
-                .iter()
-                .zip(0_u32..)
-                .all(|(&g, k)| self.rank.get(g as usize) == Some(&k));
+        let (old, rank) = (&self.splats, &self.rank);
+        let shape = self.bins.grid() == TileGrid::new(pre.width, pre.height)
+            && rank.len() == pre.means2d.len()
+            && old.len() == pre.order.len();
+        // Chunk by chunk: the same packing, and the same order (the ranks of the last call).
+        let same = Self::pack(pre, &mut packed, par, |first, chunk| {
+            let range = first..first + chunk.len();
+            shape
+                && chunk == &old[range.clone()]
+                && pre.order[range]
+                    .iter()
+                    .zip(u32::try_from(first).unwrap_or(u32::MAX)..)
+                    .all(|(&g, k)| rank.get(g as usize) == Some(&k))
+        });
         if same {
             // Use the new packing (equal up to the sign of zeros).
             core::mem::swap(&mut self.splats, &mut packed);
             self.scratch = packed;
         } else {
             self.scratch = packed;
-            self.prepare(pre);
+            self.prepare(pre, par);
         }
     }
 
@@ -231,7 +268,7 @@ impl<T: Real> TiledRasterizer<T> {
     ) {
         let (w, h) = (pre.width, pre.height);
         resize_output(out, w, h);
-        self.prepare(pre);
+        self.prepare(pre, par);
         if w == 0 || h == 0 {
             return;
         }
@@ -491,7 +528,7 @@ mod tests {
             let (splats, cam) = crate::benchmark_scene::<f64>(n, size, seed);
             let pre = crate::preprocess(&splats, &cam, &crate::RenderOptions::default());
             let mut rast = TiledRasterizer::<f64>::new();
-            rast.prepare(&pre);
+            rast.prepare(&pre, Par::Seq);
             let grid = rast.bins.grid();
             let mut longest = 0;
             for tile in 0..grid.n_tiles() {

@@ -29,8 +29,10 @@
 //! Every tile writes only its own slice of the per-entry buffer (entries are grouped by
 //! tile), so tiles run in parallel without atomics. Then every Gaussian sums its entries in
 //! tile order (the CSR index recorded by the binning) and **adds** the total into the
-//! [`RasterInputGrad`]. The result does not depend on the schedule: [`Par::Rayon`] and
-//! [`Par::Seq`] give bitwise identical gradients.
+//! [`RasterInputGrad`]. The background gradient `Σ T_final dC` is summed per tile (its
+//! pixels in order) and then over the tiles in tile order (the reference sums over all
+//! pixels in order: the same terms, ~1 ulp apart). The result does not depend on the
+//! schedule: [`Par::Rayon`] and [`Par::Seq`] give bitwise identical gradients.
 //!
 //! # Densification statistics
 //!
@@ -42,13 +44,14 @@
 
 use crate::binning::TileGrid;
 use crate::fast_exp::ExpMode;
+use crate::pool::for_each_item;
 use crate::preprocess::{Preprocessed, RasterInputGrad};
 use crate::raster_ref::{DEPTH_DENOM_MIN, RasterOutput};
 use crate::raster_ref_vjp::PixelGrad;
 use crate::raster_tiled::{ENTRY_GRAD_LEN, TiledRasterizer};
 use crate::tile_lanes::{
-    GROUPS, GROUPS_X, LANES, TileLanes, TileSplat, eval_lane, for_each_item, group_lane,
-    group_sigma, lane_centres, lane_sum, select,
+    GROUPS, GROUPS_X, LANES, TileLanes, TileSplat, eval_lane, group_lane, group_sigma,
+    lane_centres, lane_sum, select,
 };
 use alloc::vec::Vec;
 use evogs_math::{Par, Real, Vec2};
@@ -135,25 +138,29 @@ impl<T: Real> TiledRasterizer<T> {
         );
         assert_eq!(grad.len(), pre.means2d.len(), "gradient length");
 
-        self.prepare_cached(pre);
+        self.prepare_cached(pre, par);
         let grid = self.bins.grid();
         let n_entries = self.bins.n_entries();
-        self.entry_grads.clear();
+        // Every tile writes all of its entries (no zeroing here).
         self.entry_grads
             .resize(n_entries, [T::ZERO; ENTRY_GRAD_LEN]);
 
-        // One work item per tile: its slice of the per-entry buffer.
-        let mut items: Vec<&mut [[T; ENTRY_GRAD_LEN]]> = Vec::with_capacity(grid.n_tiles());
+        // One work item per tile: its slice of the per-entry buffer, and its part of the
+        // background gradient.
+        let mut items: Vec<TileItem<'_, T>> = Vec::with_capacity(grid.n_tiles());
         let mut rest = &mut self.entry_grads[..];
         let offsets = self.bins.tile_offsets();
         for t in 0..grid.n_tiles() {
             let len = (offsets[t + 1] - offsets[t]) as usize;
             let (mine, tail) = rest.split_at_mut(len);
-            items.push(mine);
+            items.push(TileItem {
+                grads: mine,
+                d_bg: [T::ZERO; 3],
+            });
             rest = tail;
         }
         let (bins, splats, exp) = (&self.bins, &self.splats[..], self.exp);
-        for_each_item(par, &mut items, |tile, grads| {
+        for_each_item(par, &mut items, |tile, item| {
             let ctx = TileCtx {
                 grid: &grid,
                 tile,
@@ -163,11 +170,18 @@ impl<T: Real> TiledRasterizer<T> {
                 d,
                 background,
             };
-            match exp {
-                ExpMode::Fast => backward_tile::<T, true>(&ctx, grads),
-                ExpMode::Exact => backward_tile::<T, false>(&ctx, grads),
-            }
+            item.d_bg = match exp {
+                ExpMode::Fast => backward_tile::<T, true>(&ctx, item.grads),
+                ExpMode::Exact => backward_tile::<T, false>(&ctx, item.grads),
+            };
         });
+        // d bg = Σ T_final dC: per tile in pixel order, then over the tiles in tile order.
+        let mut d_bg = [T::ZERO; 3];
+        for item in &items {
+            for ch in 0..3 {
+                d_bg[ch] += item.d_bg[ch];
+            }
+        }
         drop(items);
 
         // Per-Gaussian reduction in tile order, in runs of Gaussians on the pool (each
@@ -221,16 +235,15 @@ impl<T: Real> TiledRasterizer<T> {
             }
         });
         drop(runs);
-
-        // d bg = Σ T_final dC, summed in pixel order like the reference.
-        let mut d_bg = [T::ZERO; 3];
-        for p in 0..np {
-            for ch in 0..3 {
-                d_bg[ch] += out.final_t[p] * d.rgb[3 * p + ch];
-            }
-        }
         d_bg
     }
+}
+
+/// One tile of the reverse traversal: its entries' partial gradients (written) and its part
+/// of the background gradient.
+struct TileItem<'a, T> {
+    grads: &'a mut [[T; ENTRY_GRAD_LEN]],
+    d_bg: [T; 3],
 }
 
 /// Gaussians per work item of the per-Gaussian reduction of the entry gradients.
@@ -279,9 +292,11 @@ struct TileBack<T> {
 }
 
 /// Loads the pixel cotangents and traversal starts of a tile (the reference's expressions);
-/// lanes outside the image get `last = 0` (never active) and zero cotangents.
-fn load_tile<T: Real>(c: &TileCtx<'_, T>, l: &mut TileBack<T>) {
+/// lanes outside the image get `last = 0` (never active) and zero cotangents. Returns the
+/// tile's part of the background gradient, `Σ T_final dC` over its pixels in pixel order.
+fn load_tile<T: Real>(c: &TileCtx<'_, T>, l: &mut TileBack<T>) -> [T; 3] {
     let px = c.grid.tile_pixels(c.tile);
+    let mut d_bg = [T::ZERO; 3];
     lane_centres(px, &mut l.xs, &mut l.ys);
     let floor = T::from_f64(DEPTH_DENOM_MIN);
     let bg = c.background;
@@ -291,6 +306,9 @@ fn load_tile<T: Real>(c: &TileCtx<'_, T>, l: &mut TileBack<T>) {
             let p = y * c.grid.width + x;
             let tf = c.out.final_t[p];
             let dc = [c.d.rgb[3 * p], c.d.rgb[3 * p + 1], c.d.rgb[3 * p + 2]];
+            for ch in 0..3 {
+                d_bg[ch] += tf * dc[ch];
+            }
             let da = c.d.alpha.map_or(T::ZERO, |a| a[p]);
             let de = c.d.depth.map_or(T::ZERO, |a| a[p]);
             let one_minus_tf = T::ONE - tf;
@@ -311,11 +329,17 @@ fn load_tile<T: Real>(c: &TileCtx<'_, T>, l: &mut TileBack<T>) {
             l.last[g][i] = u32::try_from(local).unwrap_or(u32::MAX);
         }
     }
+    d_bg
 }
 
 /// The reverse traversal of one tile (see the module docs); writes every entry's partial
-/// gradient into `grads` (the tile's slice of the per-entry buffer, zero on entry).
-fn backward_tile<T: Real, const FAST: bool>(c: &TileCtx<'_, T>, grads: &mut [[T; ENTRY_GRAD_LEN]]) {
+/// gradient into `grads` (the tile's slice of the per-entry buffer; entries behind every
+/// pixel's last contributor, and entries that touch no pixel, get zero) and returns the tile's
+/// part of the background gradient.
+fn backward_tile<T: Real, const FAST: bool>(
+    c: &TileCtx<'_, T>,
+    grads: &mut [[T; ENTRY_GRAD_LEN]],
+) -> [T; 3] {
     let px = c.grid.tile_pixels(c.tile);
     let zero = [[T::ZERO; LANES]; GROUPS];
     let mut l = TileBack {
@@ -329,10 +353,11 @@ fn backward_tile<T: Real, const FAST: bool>(c: &TileCtx<'_, T>, grads: &mut [[T;
         xs: zero,
         ys: zero,
     };
-    load_tile(c, &mut l);
+    let d_bg = load_tile(c, &mut l);
     let group_last: [u32; GROUPS] =
         core::array::from_fn(|g| l.last[g].iter().copied().max().unwrap_or(0));
     let j_end = group_last.iter().copied().max().unwrap_or(0);
+    grads[j_end as usize..].fill([T::ZERO; ENTRY_GRAD_LEN]);
     for j in (0..j_end).rev() {
         let s = &c.splats[c.list[j as usize] as usize];
         let groups = s.groups_in(px);
@@ -346,12 +371,12 @@ fn backward_tile<T: Real, const FAST: bool>(c: &TileCtx<'_, T>, grads: &mut [[T;
                 }
             }
         }
-        if let Some(acc) = acc {
-            for (g, lanes) in grads[j as usize].iter_mut().zip(&acc) {
-                *g = lane_sum(lanes);
-            }
-        }
+        grads[j as usize] = match acc {
+            Some(acc) => core::array::from_fn(|q| lane_sum(&acc[q])),
+            None => [T::ZERO; ENTRY_GRAD_LEN],
+        };
     }
+    d_bg
 }
 
 /// The reverse-traversal step of the Gaussian `s` at index `j` of the tile's list on the

@@ -15,7 +15,8 @@
 use crate::camera::{CameraGrad, PinholeCamera};
 use crate::gaussians::{Splats, SplatsGrad};
 use crate::preprocess::{
-    Preprocessed, RasterInputGrad, RenderOptions, preprocess, preprocess_into, preprocess_vjp,
+    GradInit, Preprocessed, RasterInputGrad, RenderOptions, preprocess, preprocess_into,
+    preprocess_vjp, preprocess_vjp_with,
 };
 use crate::raster_ref::{RasterOutput, rasterize_ref};
 use crate::raster_ref_vjp::{PixelGrad, rasterize_ref_vjp};
@@ -243,18 +244,20 @@ pub fn render_tiled_vjp_projection<T: Real>(
     fwd: &Render<T>,
     grad: &mut RenderGrad<T>,
 ) {
-    if grad.splats.len() == splats.len() && grad.splats.sh_degree == splats.sh_degree {
-        grad.splats.fill_zero();
-    } else {
+    if !(grad.splats.len() == splats.len()
+        && grad.splats.sh_degree == splats.sh_degree
+        && grad.splats.check())
+    {
         grad.splats = splats.zeros_like();
     }
-    grad.camera = preprocess_vjp(
+    grad.camera = preprocess_vjp_with(
         splats,
         camera,
         opts,
         &fwd.pre,
         &grad.raster,
         &mut grad.splats,
+        GradInit::Overwrite,
     );
 }
 

@@ -30,7 +30,7 @@
 use crate::binning::{Rect, TILE_SIZE};
 use crate::fast_exp::exp_neg;
 use crate::raster_ref::{ALPHA_MAX, ALPHA_MIN};
-use evogs_math::{Par, Real, Vec2};
+use evogs_math::{Real, Vec2};
 
 /// Side of a lane group in pixels, as `u32` (pixel rectangles are `u32`).
 const SIDE_U32: u32 = 4;
@@ -207,25 +207,6 @@ pub(crate) fn to_index<T: Real>(v: T) -> usize {
     )]
     let i = v.to_f64() as usize;
     i
-}
-
-/// Runs `f(index, item)` on every item, on rayon's pool with `Par::Rayon` (work stealing
-/// over items). Results must not depend on the schedule: every item writes only itself.
-pub(crate) fn for_each_item<S: Send>(
-    par: Par,
-    items: &mut [S],
-    f: impl Fn(usize, &mut S) + Sync + Send,
-) {
-    #[cfg(feature = "rayon")]
-    if matches!(par, Par::Rayon) {
-        use rayon::prelude::*;
-        items.par_iter_mut().enumerate().for_each(|(i, s)| f(i, s));
-        return;
-    }
-    let _ = par;
-    for (i, s) in items.iter_mut().enumerate() {
-        f(i, s);
-    }
 }
 
 #[cfg(test)]

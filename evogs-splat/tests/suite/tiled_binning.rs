@@ -4,7 +4,7 @@
 
 use crate::tiled_common;
 
-use evogs_math::Real;
+use evogs_math::{Par, Real};
 use evogs_splat::{
     Binning, Preprocessed, RadiusMode, RasterMode, RenderOptions, TILE_SIZE, TileGrid, preprocess,
     splat_alpha,
@@ -100,7 +100,7 @@ fn lists_are_stable_and_the_entry_index_is_consistent() {
         let (splats, cam) = scene(w, h, 150, 0, seed);
         let pre = preprocess(&splats, &cam, &RenderOptions::default());
         let mut bins = Binning::default();
-        bins.bin(&pre);
+        bins.bin(&pre, Par::best());
         let grid = bins.grid();
         assert_eq!(grid, TileGrid::new(w, h), "grid");
         let mut total = 0;

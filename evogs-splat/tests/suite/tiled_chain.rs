@@ -436,7 +436,7 @@ fn forward_into_resizes_a_reused_output() {
 /// The number of (tile, Gaussian) pairs of `pre`, binned afresh.
 fn fresh_entries(pre: &Preprocessed<f64>) -> usize {
     let mut b = Binning::default();
-    b.bin(pre);
+    b.bin(pre, Par::Seq);
     b.n_entries()
 }
 

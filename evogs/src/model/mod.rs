@@ -17,6 +17,7 @@ pub mod anchors;
 pub mod build;
 pub mod displace;
 pub mod dynamics;
+pub mod gaussian_runs;
 pub mod grad_values;
 pub mod hop;
 pub mod init;
@@ -38,6 +39,7 @@ use crate::field::{Gemm, NeuralField};
 use evogs_math::{Par, Quat, Vec3};
 use evogs_ode::Method;
 use evogs_splat::{Splats, SplatsGrad};
+use std::ops::Range;
 
 /// How the Gaussians move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -252,7 +254,7 @@ impl<T: Gemm> ModelGrad<T> {
     /// Sets every entry to zero; `par` zeroes the field's parameters (most of the
     /// entries) in runs on the pool.
     pub fn fill_zero(&mut self, par: Par) {
-        self.canonical.fill_zero();
+        self.canonical.fill_zero(par);
         for a in &mut self.anchors {
             a.fill_zero();
         }
@@ -276,9 +278,21 @@ impl<T: Gemm> ModelGrad<T> {
     #[must_use]
     pub fn is_finite(&self, par: Par) -> bool {
         let c = &self.canonical;
-        c.means.iter().all(|v| v.is_finite())
-            && c.log_scales.iter().all(|v| v.is_finite())
-            && c.quats.iter().all(|q| q.is_finite())
+        // Each field's part of the run (the fields have one length in a consistent gradient).
+        let part = |r: &Range<usize>, len: usize| r.start.min(len)..r.end.min(len);
+        let geometry = |r: Range<usize>| {
+            c.means[part(&r, c.means.len())]
+                .iter()
+                .all(|v| v.is_finite())
+                && c.log_scales[part(&r, c.log_scales.len())]
+                    .iter()
+                    .all(|v| v.is_finite())
+                && c.quats[part(&r, c.quats.len())]
+                    .iter()
+                    .all(|q| q.is_finite())
+        };
+        let n = c.means.len().max(c.log_scales.len()).max(c.quats.len());
+        all_ranges(n, GAUSSIAN_RUN, par, geometry)
             && all_finite(&c.opacity_logits, par)
             && all_finite(c.sh.as_flattened(), par)
             && self.anchors.iter().all(AnchorState::is_finite)
@@ -301,6 +315,23 @@ fn all_finite<T: Gemm>(xs: &[T], par: Par) -> bool {
         Par::Rayon => {
             use rayon::prelude::*;
             xs.par_chunks(RUN).all(run)
+        }
+    }
+}
+
+/// Gaussians per run of the finiteness check of their means, scales and rotations.
+const GAUSSIAN_RUN: usize = 4096;
+
+/// `true` if `ok` holds for every run `[k·run, (k + 1)·run) ∩ [0, n)`; `Par::Rayon` checks the
+/// runs in parallel.
+fn all_ranges(n: usize, run: usize, par: Par, ok: impl Fn(Range<usize>) -> bool + Sync) -> bool {
+    let range = |k: usize| k * run..((k + 1) * run).min(n);
+    match par {
+        Par::Seq => (0..n.div_ceil(run)).all(|k| ok(range(k))),
+        #[cfg(feature = "rayon")]
+        Par::Rayon => {
+            use rayon::prelude::*;
+            (0..n.div_ceil(run)).into_par_iter().all(|k| ok(range(k)))
         }
     }
 }
@@ -372,6 +403,24 @@ mod tests {
             let mut g = grad();
             g.canonical.sh[3][2] = bad;
             assert!(pars.iter().all(|&p| !g.is_finite(p)), "colours");
+            // The means, scales and rotations are checked in runs of Gaussians.
+            let m = 2 * GAUSSIAN_RUN + 3;
+            for at in [0, GAUSSIAN_RUN - 1, GAUSSIAN_RUN, m - 1] {
+                let fresh = || ModelGrad {
+                    canonical: SplatsGrad::<f32>::zeros(m, 0),
+                    ..grad()
+                };
+                let mut g = fresh();
+                assert!(pars.iter().all(|&p| g.is_finite(p)), "{m} zeros");
+                g.canonical.means[at].y = bad;
+                assert!(pars.iter().all(|&p| !g.is_finite(p)), "mean {at}");
+                let mut g = fresh();
+                g.canonical.log_scales[at].z = bad;
+                assert!(pars.iter().all(|&p| !g.is_finite(p)), "scale {at}");
+                let mut g = fresh();
+                g.canonical.quats[at].w = bad;
+                assert!(pars.iter().all(|&p| !g.is_finite(p)), "rotation {at}");
+            }
         }
     }
 

@@ -75,6 +75,7 @@ pub fn render_backward<T: Real>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use evogs_math::Par;
     use evogs_splat::{random_scene, render_tiled, render_tiled_vjp};
 
     #[test]
@@ -101,7 +102,7 @@ mod tests {
         render_forward(&splats, &camera, &opts, &mut rast, &mut out, &mut times);
         assert!(out == reference, "forward");
         let mut grad = reference_grad.clone();
-        grad.splats.fill_zero();
+        grad.splats.fill_zero(Par::Seq);
         render_backward(
             &splats, &camera, &opts, &mut rast, &out, &d, &mut grad, &mut times,
         );
