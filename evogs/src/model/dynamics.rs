@@ -9,8 +9,9 @@
 //! normalisation VJP.
 
 use super::displace::{displace, displace_vjp};
+use super::gaussian_runs::{for_each_gaussian, for_each_gaussian3};
 use super::hop::{HopStart, HopTape};
-use super::packing::{TANGENT, pack_state, unpack};
+use super::packing::{TANGENT, pack_state, unpack, unpack_into};
 use super::{Model, ModelGrad, Motion, Waypoints, add_runs};
 use crate::field::neural::STATE_STRIDE;
 use crate::field::{FieldRecord, Gemm};
@@ -136,7 +137,7 @@ impl<T: Gemm> Model<T> {
     pub fn initial_state(&self, k: usize) -> Vec<T> {
         let (m, s, q) = self.anchor_state(k);
         let mut y = Vec::with_capacity(self.len() * STATE_STRIDE);
-        pack_state(m, s, q, &mut y);
+        pack_state(m, s, q, &mut y, self.field.par());
         y
     }
 
@@ -148,13 +149,9 @@ impl<T: Gemm> Model<T> {
 
     /// The Gaussians of an ODE state (opacity and colour from the canonical ones).
     pub fn splats_from_state(&self, y: &[T], out: &mut Splats<T>) {
-        out.clone_from(&self.canonical);
-        for i in 0..self.len() {
-            let (p, q, s) = unpack(y, i);
-            out.means[i] = p;
-            out.quats[i] = q;
-            out.log_scales[i] = s;
-        }
+        let par = self.field.par();
+        out.copy_from(&self.canonical, par);
+        unpack_into(y, &mut out.means, &mut out.quats, &mut out.log_scales, par);
     }
 
     /// Checks that the model can be evaluated at `t` in bounded time and memory: `t` is
@@ -213,7 +210,7 @@ impl<T: Gemm> Model<T> {
         stepper: &mut Option<Stepper<T>>,
         out: &mut Splats<T>,
     ) -> FrameTape<T> {
-        out.clone_from(&self.canonical);
+        out.copy_from(&self.canonical, self.field.par());
         if !self.dynamics_active || self.motion == Motion::Static {
             return FrameTape::Static;
         }
@@ -226,17 +223,13 @@ impl<T: Gemm> Model<T> {
             Motion::Velocity => {
                 let k = self.anchor_for(t);
                 let (m, s, q) = self.anchor_state(k);
+                let par = self.field.par();
                 let mut y0 = Vec::with_capacity(n * STATE_STRIDE);
-                pack_state(m, s, q, &mut y0);
+                pack_state(m, s, q, &mut y0, par);
                 let grid = self.grid(k, t);
                 let (trajectory, recording) = self.integrate_recorded(&grid, &y0, stepper);
                 let y = trajectory.final_state();
-                for i in 0..n {
-                    let (p, q, s) = unpack(y, i);
-                    out.means[i] = p;
-                    out.quats[i] = q;
-                    out.log_scales[i] = s;
-                }
+                unpack_into(y, &mut out.means, &mut out.quats, &mut out.log_scales, par);
                 FrameTape::Velocity {
                     anchor: k,
                     trajectory,
@@ -292,13 +285,12 @@ impl<T: Gemm> Model<T> {
             } => {
                 let y = trajectory.final_state();
                 let mut d_final = vec![T::ZERO; n * TANGENT];
-                for i in 0..n {
+                for_each_gaussian(par, &mut d_final, TANGENT, |i, o| {
                     let (_, q, _) = unpack(y, i);
-                    let o = &mut d_final[i * TANGENT..(i + 1) * TANGENT];
                     d.means[i].write_to(o);
                     left_cotangent_from_ambient(q, d.quats[i]).write_to(&mut o[3..]);
                     d.log_scales[i].write_to(&mut o[6..]);
-                }
+                });
                 self.adjoint_to_anchor(*anchor, trajectory, *recording, &d_final, stepper, grad);
             }
             FrameTape::Deformation { t, out, recording } => {
@@ -403,16 +395,17 @@ impl<T: Gemm> Model<T> {
         let n = self.len();
         let d_y0 = self.adjoint(trajectory, recording, d_final, stepper, &mut grad.field);
         let y0 = trajectory.initial_state();
-        let raw: Vec<Quat<T>> = self.anchor_state(k).2.to_vec();
+        let raw = self.anchor_state(k).2;
         let (gm, gs, gq) = grad.anchor_state_mut(k);
-        for i in 0..n {
+        let (gm, gs, gq) = (&mut gm[..n], &mut gs[..n], &mut gq[..n]);
+        for_each_gaussian3(self.field.par(), gm, gs, gq, |i, gm, gs, gq| {
             let (_, q_hat, _) = unpack(y0, i);
             let o = &d_y0[i * TANGENT..];
-            gm[i] += Vec3::from_slice(o);
-            gs[i] += Vec3::from_slice(&o[6..]);
+            *gm += Vec3::from_slice(o);
+            *gs += Vec3::from_slice(&o[6..]);
             let amb = ambient_from_left_cotangent(q_hat, Vec3::from_slice(&o[3..]));
-            gq[i] = gq[i] + normalize_quat_vjp(raw[i], amb);
-        }
+            *gq = *gq + normalize_quat_vjp(raw[i], amb);
+        });
     }
 
     /// The anchor loss of segment `k → k+1` (trainable waypoints):
@@ -439,7 +432,7 @@ impl<T: Gemm> Model<T> {
         }
         let (m, s, q) = self.anchor_state(k);
         let mut y0 = Vec::with_capacity(n * STATE_STRIDE);
-        pack_state(m, s, q, &mut y0);
+        pack_state(m, s, q, &mut y0, self.field.par());
         let grid = self.grid(k, self.anchor_times[k + 1]);
         let (trajectory, recording) = self.integrate_recorded(&grid, &y0, stepper);
         let y = trajectory.final_state();

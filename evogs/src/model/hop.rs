@@ -407,10 +407,22 @@ impl<T: Gemm> Model<T> {
         let flow = moves.then(|| {
             let n = self.len();
             let mut y0 = Vec::with_capacity(n * STATE_STRIDE);
-            pack_state(&out.means, &out.log_scales, &out.quats, &mut y0);
+            pack_state(
+                &out.means,
+                &out.log_scales,
+                &out.quats,
+                &mut y0,
+                self.field.par(),
+            );
             if let Some((t_prev, _, at_prev)) = &prev {
                 let mut y_prev = Vec::with_capacity(n * STATE_STRIDE);
-                pack_state(&at_prev.0, &at_prev.1, &at_prev.2, &mut y_prev);
+                pack_state(
+                    &at_prev.0,
+                    &at_prev.1,
+                    &at_prev.2,
+                    &mut y_prev,
+                    self.field.par(),
+                );
                 y0 = with_velocities(&y0, &y_prev, T::from_f64(start), *t_prev);
             }
             let grid = self.hop_grid(start, t);
