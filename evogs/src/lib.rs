@@ -31,6 +31,7 @@
 
 pub mod aligned;
 pub mod atomic;
+pub mod awake;
 pub mod bounded;
 pub mod config;
 pub mod data;

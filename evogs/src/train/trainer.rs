@@ -20,6 +20,7 @@ use super::step::{
     StepLosses, StepSettings, StepWorkspace, TeacherSample, ViewData, accumulate_screen_stats,
     loss_and_grad,
 };
+use crate::awake::KeepAwake;
 use crate::config::{ConfigChange, TrainConfig, changes};
 use crate::data::DataIdentity;
 use crate::field::regularize::PlaneRegWeights;
@@ -424,6 +425,9 @@ impl Trainer {
     /// cannot exchange the step.
     pub fn step_with(&mut self, collective: &dyn Collective) -> Result<StepReport, TrainError> {
         self.check_collective(collective)?;
+        // The pool's other threads poll for the iteration's parallel passes instead of
+        // sleeping between them (bitwise the same results; `crate::awake`).
+        let _awake = KeepAwake::start(self.par);
         let start = Instant::now();
         let it = self.state.iteration + 1;
         let mut report = StepReport {
