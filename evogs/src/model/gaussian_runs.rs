@@ -1,12 +1,32 @@
 //! Per-Gaussian passes in runs on the pool: [`for_each_gaussian`] over one per-Gaussian
 //! buffer (an ODE state, a cotangent), [`for_each_gaussian3`] over three (means, rotations,
-//! scales). Each Gaussian's entries are written by one call of `f` and nothing is reduced, so
-//! `Par::Rayon` gives bitwise the results of `Par::Seq`; the runs have a fixed length.
+//! scales), [`all_gaussian_runs`] a check of every run. Each Gaussian's entries are written
+//! by one call of `f` and nothing is reduced, so `Par::Rayon` gives bitwise the results of
+//! `Par::Seq`; the runs have a fixed length.
 
 use evogs_math::Par;
+use std::ops::Range;
 
 /// Gaussians per run.
-const RUN: usize = 2048;
+pub const RUN: usize = 2048;
+
+/// `true` if `ok` holds for every run `[k·RUN, (k + 1)·RUN) ∩ [0, n)` of `n` Gaussians;
+/// `Par::Rayon` checks the runs in parallel.
+pub fn all_gaussian_runs(
+    par: Par,
+    n: usize,
+    ok: impl Fn(Range<usize>) -> bool + Sync + Send,
+) -> bool {
+    let range = |k: usize| k * RUN..((k + 1) * RUN).min(n);
+    match par {
+        Par::Seq => (0..n.div_ceil(RUN)).all(|k| ok(range(k))),
+        #[cfg(feature = "rayon")]
+        Par::Rayon => {
+            use rayon::prelude::*;
+            (0..n.div_ceil(RUN)).into_par_iter().all(|k| ok(range(k)))
+        }
+    }
+}
 
 /// Calls `f(i, entries)` for every Gaussian `i`, with `entries` its `width` consecutive
 /// values of `buf` (`buf.len()` a multiple of `width`).

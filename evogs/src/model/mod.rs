@@ -39,6 +39,7 @@ use crate::field::{Gemm, NeuralField};
 use evogs_math::{Par, Quat, Vec3};
 use evogs_ode::Method;
 use evogs_splat::{Splats, SplatsGrad};
+use gaussian_runs::all_gaussian_runs;
 use std::ops::Range;
 
 /// How the Gaussians move.
@@ -292,7 +293,7 @@ impl<T: Gemm> ModelGrad<T> {
                     .all(|q| q.is_finite())
         };
         let n = c.means.len().max(c.log_scales.len()).max(c.quats.len());
-        all_ranges(n, GAUSSIAN_RUN, par, geometry)
+        all_gaussian_runs(par, n, geometry)
             && all_finite(&c.opacity_logits, par)
             && all_finite(c.sh.as_flattened(), par)
             && self.anchors.iter().all(AnchorState::is_finite)
@@ -315,23 +316,6 @@ fn all_finite<T: Gemm>(xs: &[T], par: Par) -> bool {
         Par::Rayon => {
             use rayon::prelude::*;
             xs.par_chunks(RUN).all(run)
-        }
-    }
-}
-
-/// Gaussians per run of the finiteness check of their means, scales and rotations.
-const GAUSSIAN_RUN: usize = 4096;
-
-/// `true` if `ok` holds for every run `[k·run, (k + 1)·run) ∩ [0, n)`; `Par::Rayon` checks the
-/// runs in parallel.
-fn all_ranges(n: usize, run: usize, par: Par, ok: impl Fn(Range<usize>) -> bool + Sync) -> bool {
-    let range = |k: usize| k * run..((k + 1) * run).min(n);
-    match par {
-        Par::Seq => (0..n.div_ceil(run)).all(|k| ok(range(k))),
-        #[cfg(feature = "rayon")]
-        Par::Rayon => {
-            use rayon::prelude::*;
-            (0..n.div_ceil(run)).into_par_iter().all(|k| ok(range(k)))
         }
     }
 }
@@ -404,8 +388,8 @@ mod tests {
             g.canonical.sh[3][2] = bad;
             assert!(pars.iter().all(|&p| !g.is_finite(p)), "colours");
             // The means, scales and rotations are checked in runs of Gaussians.
-            let m = 2 * GAUSSIAN_RUN + 3;
-            for at in [0, GAUSSIAN_RUN - 1, GAUSSIAN_RUN, m - 1] {
+            let m = 2 * gaussian_runs::RUN + 3;
+            for at in [0, gaussian_runs::RUN - 1, gaussian_runs::RUN, m - 1] {
                 let fresh = || ModelGrad {
                     canonical: SplatsGrad::<f32>::zeros(m, 0),
                     ..grad()
