@@ -82,14 +82,26 @@ impl<T: Clone> Clone for Splats<T> {
 /// fixed number, so the work splits the same way on any thread count.
 const RUN: usize = 2048;
 
-/// One run of consecutive Gaussians: its first index and its slices of every field.
-struct RunMut<'a, T> {
-    first: usize,
-    means: &'a mut [Vec3<T>],
-    log_scales: &'a mut [Vec3<T>],
-    quats: &'a mut [Quat<T>],
-    opacity_logits: &'a mut [T],
-    sh: &'a mut [[T; 3]],
+/// One run of consecutive Gaussians: its first index and its slices of every field (the
+/// work item of the passes over Gaussians and over their gradients).
+pub(crate) struct RunMut<'a, T> {
+    pub(crate) first: usize,
+    pub(crate) means: &'a mut [Vec3<T>],
+    pub(crate) log_scales: &'a mut [Vec3<T>],
+    pub(crate) quats: &'a mut [Quat<T>],
+    pub(crate) opacity_logits: &'a mut [T],
+    pub(crate) sh: &'a mut [[T; 3]],
+}
+
+impl<T: Real> RunMut<'_, T> {
+    /// Sets every entry of the run to zero.
+    pub(crate) fn fill_zero(&mut self) {
+        self.means.fill(Vec3::zero());
+        self.log_scales.fill(Vec3::zero());
+        self.quats.fill(Quat::zero());
+        self.opacity_logits.fill(T::ZERO);
+        self.sh.fill([T::ZERO; 3]);
+    }
 }
 
 /// Gradient of a loss with respect to every field of [`Splats`] (same layout).
@@ -144,13 +156,7 @@ impl<T: Real> Splats<T> {
             self.sh.fill([T::ZERO; 3]);
             return;
         }
-        for_each_item(par, &mut self.runs_mut(), |_, r| {
-            r.means.fill(Vec3::zero());
-            r.log_scales.fill(Vec3::zero());
-            r.quats.fill(Quat::zero());
-            r.opacity_logits.fill(T::ZERO);
-            r.sh.fill([T::ZERO; 3]);
-        });
+        for_each_item(par, &mut self.runs_mut(RUN), |_, r| r.fill_zero());
     }
 
     /// Makes `self` a copy of `source` in the buffers it has (like
@@ -177,7 +183,7 @@ impl<T: Real> Splats<T> {
         self.opacity_logits.resize(n, T::ZERO);
         self.sh.resize(source.sh.len(), [T::ZERO; 3]);
         let k = source.coeffs_per_gaussian();
-        for_each_item(par, &mut self.runs_mut(), |_, r| {
+        for_each_item(par, &mut self.runs_mut(RUN), |_, r| {
             let range = r.first..r.first + r.means.len();
             r.means.copy_from_slice(&source.means[range.clone()]);
             r.log_scales
@@ -189,19 +195,19 @@ impl<T: Real> Splats<T> {
         });
     }
 
-    /// The runs of [`RUN`] consecutive Gaussians (the last one shorter) of a consistent set.
-    fn runs_mut(&mut self) -> Vec<RunMut<'_, T>> {
+    /// The runs of `run` consecutive Gaussians (the last one shorter) of a consistent set.
+    pub(crate) fn runs_mut(&mut self, run: usize) -> Vec<RunMut<'_, T>> {
         let k = self.coeffs_per_gaussian();
         self.means
-            .chunks_mut(RUN)
-            .zip(self.log_scales.chunks_mut(RUN))
-            .zip(self.quats.chunks_mut(RUN))
-            .zip(self.opacity_logits.chunks_mut(RUN))
-            .zip(self.sh.chunks_mut(RUN * k))
+            .chunks_mut(run)
+            .zip(self.log_scales.chunks_mut(run))
+            .zip(self.quats.chunks_mut(run))
+            .zip(self.opacity_logits.chunks_mut(run))
+            .zip(self.sh.chunks_mut(run * k))
             .enumerate()
             .map(
                 |(r, ((((means, log_scales), quats), opacity_logits), sh))| RunMut {
-                    first: r * RUN,
+                    first: r * run,
                     means,
                     log_scales,
                     quats,

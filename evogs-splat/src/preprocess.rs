@@ -36,7 +36,7 @@ use alloc::vec::Vec;
 use core::cmp::Ordering;
 use evogs_math::activation::sigmoid;
 use evogs_math::sh::sh_coeff_count;
-use evogs_math::{Par, Quat, Real, Vec2, Vec3};
+use evogs_math::{Par, Real, Vec2, Vec3};
 
 /// Gaussians per parallel work item.
 pub const CHUNK: usize = 256;
@@ -322,16 +322,6 @@ pub fn preprocess_into<T: Real>(
     out.order.sort_unstable_by(by_depth);
 }
 
-/// One chunk of the parameter gradient.
-struct GradChunk<'a, T> {
-    start: usize,
-    means: &'a mut [Vec3<T>],
-    log_scales: &'a mut [Vec3<T>],
-    quats: &'a mut [Quat<T>],
-    opacity_logits: &'a mut [T],
-    sh: &'a mut [[T; 3]],
-}
-
 /// VJP of [`preprocess`]: from the per-Gaussian rasterizer-input gradients `d` to the raw
 /// parameters (**added** into `grad`, which must be shaped like `splats`) and the camera
 /// (returned).
@@ -382,37 +372,15 @@ pub(crate) fn preprocess_vjp_with<T: Real>(
     let center = camera.center();
     let antialiased = opts.mode == RasterMode::Antialiased;
     let k = sh_coeff_count(splats.sh_degree);
-    let mut chunks: Vec<GradChunk<'_, T>> = grad
-        .means
-        .chunks_mut(CHUNK)
-        .zip(grad.log_scales.chunks_mut(CHUNK))
-        .zip(grad.quats.chunks_mut(CHUNK))
-        .zip(grad.opacity_logits.chunks_mut(CHUNK))
-        .zip(grad.sh.chunks_mut(CHUNK * k.max(1)))
-        .enumerate()
-        .map(
-            |(c, ((((means, log_scales), quats), opacity_logits), sh))| GradChunk {
-                start: c * CHUNK,
-                means,
-                log_scales,
-                quats,
-                opacity_logits,
-                sh,
-            },
-        )
-        .collect();
+    let mut chunks = grad.runs_mut(CHUNK);
     let partial = run_items(opts.par, &mut chunks, |c| {
         if init == GradInit::Overwrite {
-            c.means.fill(Vec3::zero());
-            c.log_scales.fill(Vec3::zero());
-            c.quats.fill(Quat::zero());
-            c.opacity_logits.fill(T::ZERO);
-            c.sh.fill([T::ZERO; 3]);
+            c.fill_zero();
         }
         let mut cam = CameraGrad::zero();
         let mut d_center = Vec3::zero();
         for j in 0..c.means.len() {
-            let i = c.start + j;
+            let i = c.first + j;
             if !pre.valid[i] {
                 continue;
             }
