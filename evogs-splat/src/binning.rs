@@ -224,6 +224,14 @@ struct BinChunk<'a> {
     by_chunk: &'a mut [u32],
 }
 
+/// Whether [`Binning::chunk_items`] hands each chunk its part of the entry arrays: not
+/// before the chunks have counted their entries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Entries {
+    NotYet,
+    Counted,
+}
+
 impl Binning {
     /// Bins the valid Gaussians of `pre` (in `pre.order`) into the tiles of its image; with
     /// `par`, in chunks of Gaussians and bands of tiles on the pool. The result is the one
@@ -270,15 +278,7 @@ impl Binning {
         }
 
         // 1. Rectangles, the chunk's entries per tile and its running totals.
-        let mut chunks = chunk_items(
-            chunk,
-            stride,
-            &mut self.rects,
-            &mut self.splat_offsets[1..],
-            &mut self.counts,
-            &mut self.local,
-            &mut self.global,
-        );
+        let mut chunks = self.chunk_items(chunk, stride, Entries::NotYet);
         for_each_item(par, &mut chunks, |_, c| {
             let order = &pre.order[c.first..c.first + c.rects.len()];
             let mut total = 0_usize;
@@ -324,29 +324,7 @@ impl Binning {
         self.by_chunk.resize(total, 0);
 
         // 3. Per chunk: the entries sorted by tile, and every Gaussian's entry indices.
-        let mut chunks = chunk_items(
-            chunk,
-            stride,
-            &mut self.rects,
-            &mut self.splat_offsets[1..],
-            &mut self.counts,
-            &mut self.local,
-            &mut self.global,
-        );
-        let mut tail_entries = &mut self.splat_entries[..];
-        let mut tail_by_chunk = &mut self.by_chunk[..];
-        let mut base = 0;
-        for c in &mut chunks {
-            let len = c.ends.last().map_or(0, |&e| e as usize);
-            let (mine, rest) = tail_entries.split_at_mut(len);
-            c.splat_entries = mine;
-            tail_entries = rest;
-            let (mine, rest) = tail_by_chunk.split_at_mut(len);
-            c.by_chunk = mine;
-            tail_by_chunk = rest;
-            c.base = base;
-            base += len;
-        }
+        let mut chunks = self.chunk_items(chunk, stride, Entries::Counted);
         for_each_item(par, &mut chunks, |_, c| {
             let base = u32::try_from(c.base).expect("too many tile entries");
             let mut e = 0;
@@ -396,6 +374,57 @@ impl Binning {
                 }
             }
         });
+    }
+
+    /// The chunks of `chunk` order positions (the last one shorter) over the per-Gaussian
+    /// arrays and the per-(chunk, tile) scratch (`stride` values per chunk); once the
+    /// chunks' entries are counted, also their slices of `splat_entries` and `by_chunk`.
+    fn chunk_items(&mut self, chunk: usize, stride: usize, entries: Entries) -> Vec<BinChunk<'_>> {
+        let Self {
+            rects,
+            splat_offsets,
+            counts,
+            local,
+            global,
+            splat_entries,
+            by_chunk,
+            ..
+        } = self;
+        let mut items: Vec<BinChunk<'_>> = rects
+            .chunks_mut(chunk)
+            .zip(splat_offsets[1..].chunks_mut(chunk))
+            .zip(counts.chunks_mut(stride))
+            .zip(local.chunks_mut(stride))
+            .zip(global.chunks_mut(stride))
+            .enumerate()
+            .map(|(c, ((((rects, ends), counts), local), global))| BinChunk {
+                first: c * chunk,
+                base: 0,
+                rects,
+                ends,
+                counts,
+                local,
+                global,
+                splat_entries: &mut [],
+                by_chunk: &mut [],
+            })
+            .collect();
+        if entries == Entries::Counted {
+            // Each chunk's entries follow the previous chunk's, `ends` running totals of
+            // its own.
+            let (mut tail_entries, mut tail_by_chunk) = (&mut splat_entries[..], &mut by_chunk[..]);
+            let mut base = 0;
+            for c in &mut items {
+                let len = c.ends.last().map_or(0, |&e| e as usize);
+                let (mine, rest) = tail_entries.split_at_mut(len);
+                (c.splat_entries, tail_entries) = (mine, rest);
+                let (mine, rest) = tail_by_chunk.split_at_mut(len);
+                (c.by_chunk, tail_by_chunk) = (mine, rest);
+                c.base = base;
+                base += len;
+            }
+        }
+        items
     }
 
     /// The tile grid of the last binned image.
@@ -451,39 +480,6 @@ fn threads(par: Par) -> usize {
     }
     let _ = par;
     1
-}
-
-/// The chunks of `chunk` order positions (the last one shorter) over the per-Gaussian arrays
-/// and the per-(chunk, tile) scratch (`stride` values per chunk); `base`, `splat_entries` and `by_chunk` are set by the
-/// caller once the chunks' entry counts are known.
-fn chunk_items<'a>(
-    chunk: usize,
-    stride: usize,
-    rects: &'a mut [Rect],
-    ends: &'a mut [u32],
-    counts: &'a mut [u32],
-    local: &'a mut [u32],
-    global: &'a mut [u32],
-) -> Vec<BinChunk<'a>> {
-    rects
-        .chunks_mut(chunk)
-        .zip(ends.chunks_mut(chunk))
-        .zip(counts.chunks_mut(stride))
-        .zip(local.chunks_mut(stride))
-        .zip(global.chunks_mut(stride))
-        .enumerate()
-        .map(|(c, ((((rects, ends), counts), local), global))| BinChunk {
-            first: c * chunk,
-            base: 0,
-            rects,
-            ends,
-            counts,
-            local,
-            global,
-            splat_entries: &mut [],
-            by_chunk: &mut [],
-        })
-        .collect()
 }
 
 #[cfg(test)]
