@@ -138,6 +138,13 @@ mod tests {
             .collect()
     }
 
+    fn pool(threads: usize) -> rayon::ThreadPool {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool")
+    }
+
     /// Waits up to ten seconds for `live` to read `want`.
     fn settles(live: &AtomicUsize, want: usize) -> bool {
         let t = Instant::now();
@@ -152,10 +159,7 @@ mod tests {
 
     #[test]
     fn the_other_threads_poll_while_it_lives_and_stop_when_it_is_dropped() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(3)
-            .build()
-            .expect("pool");
+        let pool = pool(3);
         let plain = pool.install(work);
         pool.install(|| {
             for _ in 0..10 {
@@ -214,10 +218,7 @@ mod tests {
 
     #[test]
     fn it_does_nothing_sequentially_or_on_one_thread_or_outside_a_pool() {
-        let one = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
-            .build()
-            .expect("pool");
+        let one = pool(1);
         let plain = one.install(work);
         one.install(|| {
             let awake = KeepAwake::start(Par::best());

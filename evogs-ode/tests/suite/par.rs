@@ -12,8 +12,34 @@ use evogs_ode::{
     discrete_adjoint_recorded, integrate_recorded, integrate_trajectory,
 };
 
+/// How [`run_with`] integrates and goes back.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Route {
+    /// `integrate_trajectory` with a checkpoint every second step, then `discrete_adjoint`.
+    Checkpoints,
+    /// `integrate_recorded` through a stage tape that keeps every step (the field values of
+    /// the stages are copied into the tape in the stages' parallel passes), then
+    /// `discrete_adjoint_recorded`.
+    Tape,
+}
+
 /// Final state and gradients of one forward-and-adjoint run with the given parallelism.
 fn run<F: VectorField<f64> + Clone>(proto: &F, m: Method, par: Par) -> [Vec<f64>; 3] {
+    run_with(proto, m, par, Route::Checkpoints)
+}
+
+/// [`run`] through a stage tape that keeps every step.
+fn run_recorded<F: VectorField<f64> + Clone>(proto: &F, m: Method, par: Par) -> [Vec<f64>; 3] {
+    run_with(proto, m, par, Route::Tape)
+}
+
+/// Final state and gradients of one forward-and-adjoint run along `route`.
+fn run_with<F: VectorField<f64> + Clone>(
+    proto: &F,
+    m: Method,
+    par: Par,
+    route: Route,
+) -> [Vec<f64>; 3] {
     let layout = proto.layout();
     let y0 = random_state(&layout, 62);
     let loss = Loss::new(layout, 63);
@@ -24,17 +50,27 @@ fn run<F: VectorField<f64> + Clone>(proto: &F, m: Method, par: Par) -> [Vec<f64>
     st.set_par(Par::Seq);
     assert_eq!(st.par(), Par::Seq, "set_par");
     st.set_par(par);
-    let traj = integrate_trajectory(&mut field, &mut st, &grid, &y0, Checkpointing::Every(2));
     let mut d_y0 = vec![0.0; layout.tangent_len()];
     let mut d_th = vec![0.0; field.n_params()];
-    discrete_adjoint(
-        &mut field,
-        &mut st,
-        &traj,
-        &loss.gradient(traj.final_state()),
-        &mut d_y0,
-        &mut d_th,
-    );
+    let traj = match route {
+        Route::Checkpoints => {
+            let traj =
+                integrate_trajectory(&mut field, &mut st, &grid, &y0, Checkpointing::Every(2));
+            let d_final = loss.gradient(traj.final_state());
+            discrete_adjoint(&mut field, &mut st, &traj, &d_final, &mut d_y0, &mut d_th);
+            traj
+        }
+        Route::Tape => {
+            let mut tape = StageTape::new(6 * m.stages());
+            let traj = integrate_recorded(&mut field, &mut st, &grid, &y0, &mut tape);
+            assert_eq!(tape.kept_stages(), 6 * m.stages(), "{m}: every step kept");
+            let d_final = loss.gradient(traj.final_state());
+            discrete_adjoint_recorded(
+                &mut field, &mut st, &traj, &mut tape, &d_final, &mut d_y0, &mut d_th,
+            );
+            traj
+        }
+    };
     [traj.final_state().to_vec(), d_y0, d_th]
 }
 
@@ -66,32 +102,6 @@ fn rayon_and_sequential_steppers_agree_bitwise_on_points() {
     assert!(frame.layout().is_euclidean(), "points are Euclidean");
     let proto = RigidRotation::new(frame, Vec3::new(0.3, -0.2, 0.5), Vec3::new(0.1, 0.0, -0.1));
     assert_seq_and_rayon_agree(&proto, "results on points");
-}
-
-/// [`run`] through a stage tape that keeps every step ([`integrate_recorded`]: the field
-/// values of the stages are copied into the tape in the stages' parallel passes).
-fn run_recorded<F: VectorField<f64> + Clone>(proto: &F, m: Method, par: Par) -> [Vec<f64>; 3] {
-    let layout = proto.layout();
-    let y0 = random_state(&layout, 62);
-    let loss = Loss::new(layout, 63);
-    let grid = TimeGrid::uniform(0.0, 0.8, 6);
-    let mut field = proto.clone();
-    let mut st = Stepper::new(m, layout).with_par(par);
-    let mut tape = StageTape::new(6 * m.stages());
-    let traj = integrate_recorded(&mut field, &mut st, &grid, &y0, &mut tape);
-    assert_eq!(tape.kept_stages(), 6 * m.stages(), "{m}: every step kept");
-    let mut d_y0 = vec![0.0; layout.tangent_len()];
-    let mut d_th = vec![0.0; field.n_params()];
-    discrete_adjoint_recorded(
-        &mut field,
-        &mut st,
-        &traj,
-        &mut tape,
-        &loss.gradient(traj.final_state()),
-        &mut d_y0,
-        &mut d_th,
-    );
-    [traj.final_state().to_vec(), d_y0, d_th]
 }
 
 /// [`run`] and [`run_recorded`] give bitwise the same results with `Par::Seq` and
